@@ -1,0 +1,218 @@
+"""Occupancy grids and the ROS map_server file format.
+
+The grid follows ROS ``nav_msgs/OccupancyGrid``: ``data[row, col]`` with row 0 at the
+map origin (the *bottom* of the image), values ``-1`` unknown, ``0`` free, ``100``
+occupied. map_server images are stored top row first, so reading and writing flips rows.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+
+from bomc_bt.errors import BomcError
+
+UNKNOWN = -1
+FREE = 0
+OCCUPIED = 100
+
+# The pixel values map_saver writes (trinary mode, negate 0).
+PGM_FREE = 254
+PGM_OCCUPIED = 0
+PGM_UNKNOWN = 205
+
+
+@dataclass
+class OccupancyGrid:
+    """A 2D occupancy grid in the map frame (origin yaw must be 0)."""
+
+    data: np.ndarray  # int8 (H, W): -1 unknown, 0 free, 100 occupied
+    resolution: float  # metres per cell
+    origin: tuple[float, float] = (0.0, 0.0)  # map-frame position of cell (0, 0)'s corner
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def unknown(cls, width: int, height: int, resolution: float, origin=(0.0, 0.0)) -> OccupancyGrid:
+        return cls(np.full((height, width), UNKNOWN, dtype=np.int8), resolution, tuple(origin))
+
+    @property
+    def height(self) -> int:
+        return int(self.data.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.data.shape[1])
+
+    def copy(self) -> OccupancyGrid:
+        return OccupancyGrid(self.data.copy(), self.resolution, tuple(self.origin))
+
+    # -- coordinates -----------------------------------------------------------------
+    def world_to_cell(self, x, y):
+        """Map-frame metres to (row, col) integer indices (vectorised; may be out of bounds)."""
+        col = np.floor((np.asarray(x, dtype=float) - self.origin[0]) / self.resolution).astype(np.int64)
+        row = np.floor((np.asarray(y, dtype=float) - self.origin[1]) / self.resolution).astype(np.int64)
+        return row, col
+
+    def cell_to_world(self, row, col):
+        """(row, col) to the map-frame centre of the cell (vectorised)."""
+        x = self.origin[0] + (np.asarray(col, dtype=float) + 0.5) * self.resolution
+        y = self.origin[1] + (np.asarray(row, dtype=float) + 0.5) * self.resolution
+        return x, y
+
+    def in_bounds(self, row, col):
+        row, col = np.asarray(row), np.asarray(col)
+        return (row >= 0) & (row < self.height) & (col >= 0) & (col < self.width)
+
+    def value_at(self, x: float, y: float) -> int:
+        """Cell value at a map-frame point; outside the grid counts as unknown."""
+        r, c = self.world_to_cell(x, y)
+        if not self.in_bounds(r, c):
+            return UNKNOWN
+        return int(self.data[r, c])
+
+    # -- masks -----------------------------------------------------------------------
+    def free_mask(self) -> np.ndarray:
+        return self.data == FREE
+
+    def occupied_mask(self) -> np.ndarray:
+        return self.data >= 50
+
+    def unknown_mask(self) -> np.ndarray:
+        return self.data < 0
+
+    def free_area(self) -> float:
+        """Known-free area in square metres."""
+        return float(np.count_nonzero(self.free_mask())) * self.resolution**2
+
+    def inflate(self, radius: float, unknown_is_obstacle: bool = False) -> np.ndarray:
+        """Cells within ``radius`` metres of an obstacle (bool mask), as a costmap does."""
+        obstacles = self.occupied_mask()
+        if unknown_is_obstacle:
+            obstacles = obstacles | self.unknown_mask()
+        return inflate_mask(obstacles, radius / self.resolution)
+
+
+def inflate_mask(mask: np.ndarray, radius_cells: float) -> np.ndarray:
+    """Dilate a bool mask by a disc of ``radius_cells`` (vectorised through OpenCV)."""
+    r = int(math.ceil(radius_cells))
+    if r <= 0 or not mask.any():
+        return mask.copy()
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    return cv2.dilate(mask.astype(np.uint8), kernel).astype(bool)
+
+
+# -- map_server format -------------------------------------------------------------------
+def load_map(yaml_path: str | Path) -> OccupancyGrid:
+    """Read a map_server map (YAML + image) with its negate, thresholds and mode."""
+    yaml_path = Path(yaml_path)
+    try:
+        meta = yaml.safe_load(yaml_path.read_text())
+    except FileNotFoundError:
+        raise BomcError("map file not found", yaml_path) from None
+    except (OSError, yaml.YAMLError) as exc:
+        raise BomcError(f"cannot read map YAML ({_first_line(exc)})", yaml_path) from None
+    if not isinstance(meta, dict):
+        raise BomcError("expected a mapping of map_server keys", yaml_path)
+    image = _require(meta, "image", str, yaml_path)
+    resolution = float(_require(meta, "resolution", (int, float), yaml_path))
+    if not math.isfinite(resolution) or resolution <= 0:
+        raise BomcError("must be a positive number", yaml_path, "resolution")
+    origin = meta.get("origin", [0.0, 0.0, 0.0])
+    if not (isinstance(origin, list) and len(origin) in (2, 3)
+            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in origin)):
+        raise BomcError("must be [x, y, yaw]", yaml_path, "origin")
+    if len(origin) == 3 and abs(origin[2]) > 1e-9:
+        raise BomcError("a rotated map origin (yaw != 0) is not supported", yaml_path, "origin")
+    negate = int(meta.get("negate", 0))
+    occ_t = float(meta.get("occupied_thresh", 0.65))
+    free_t = float(meta.get("free_thresh", 0.196))
+    if not 0.0 <= free_t <= occ_t <= 1.0:
+        raise BomcError("need 0 <= free_thresh <= occupied_thresh <= 1", yaml_path, "free_thresh")
+    mode = str(meta.get("mode", "trinary"))
+    if mode not in ("trinary", "scale", "raw"):
+        raise BomcError(f"unknown mode {mode!r} (trinary, scale, raw)", yaml_path, "mode")
+    image_path = (yaml_path.parent / image) if not os.path.isabs(image) else Path(image)
+    pixels = cv2.imread(str(image_path), cv2.IMREAD_UNCHANGED)
+    if pixels is None:
+        raise BomcError(f"cannot read map image {image_path}", yaml_path, "image")
+    if pixels.ndim == 3:  # colour images: map_server averages the channels
+        pixels = pixels[..., :3].mean(axis=2)
+    pixels = pixels.astype(np.float64)
+    if pixels.max(initial=0) > 255:
+        pixels = pixels / 257.0
+    data = _pixels_to_occupancy(pixels, negate, occ_t, free_t, mode)
+    return OccupancyGrid(np.flipud(data).copy(), resolution, (float(origin[0]), float(origin[1])))
+
+
+def _pixels_to_occupancy(pixels, negate, occ_t, free_t, mode) -> np.ndarray:
+    if mode == "raw":
+        out = pixels.astype(np.int16)
+        out[out > 100] = -1
+        return out.astype(np.int8)
+    occ = pixels / 255.0 if negate else (255.0 - pixels) / 255.0
+    data = np.full(pixels.shape, UNKNOWN, dtype=np.int8)
+    data[occ > occ_t] = OCCUPIED
+    data[occ < free_t] = FREE
+    if mode == "scale":
+        between = (occ >= free_t) & (occ <= occ_t)
+        scaled = np.rint(99.0 * (occ - free_t) / max(occ_t - free_t, 1e-9))
+        data[between] = scaled[between].astype(np.int8)
+    return data
+
+
+def save_map(grid: OccupancyGrid, yaml_path: str | Path) -> None:
+    """Write ``grid`` as map_saver does (trinary PGM + YAML), atomically.
+
+    Both files are written to temporaries and renamed into place, so a crash during the
+    save leaves the previous map intact.
+    """
+    yaml_path = Path(yaml_path)
+    yaml_path.parent.mkdir(parents=True, exist_ok=True)
+    pgm_path = yaml_path.with_suffix(".pgm")
+    pixels = np.full(grid.data.shape, PGM_UNKNOWN, dtype=np.uint8)
+    pixels[grid.data == FREE] = PGM_FREE
+    pixels[grid.data >= 65] = PGM_OCCUPIED
+    pixels = np.flipud(pixels)
+    header = f"P5\n# CREATOR: bomc-bt {grid.resolution:.3f} m/pix\n{grid.width} {grid.height}\n255\n"
+    _atomic_write(pgm_path, header.encode("ascii") + pixels.tobytes())
+    meta = (
+        f"image: {pgm_path.name}\n"
+        f"resolution: {grid.resolution:.6f}\n"
+        f"origin: [{grid.origin[0]:.6f}, {grid.origin[1]:.6f}, 0.000000]\n"
+        "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n"
+    )
+    _atomic_write(yaml_path, meta.encode("ascii"))
+
+
+def _atomic_write(path: Path, payload: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(payload)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _require(meta: dict, key: str, types, path: Path):
+    if key not in meta:
+        raise BomcError("missing", path, key)
+    value = meta[key]
+    if not isinstance(value, types) or isinstance(value, bool):
+        raise BomcError(f"has the wrong type ({type(value).__name__})", path, key)
+    return value
+
+
+def _first_line(exc: Exception) -> str:
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
