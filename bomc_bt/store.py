@@ -1,0 +1,368 @@
+"""The site store: ``<site>/site.db``, the object graph's current state and its full history.
+
+One SQLite file (stdlib ``sqlite3``) per site, because a monitor pass must survive being
+killed: every frame's events and changed nodes are written in ONE transaction, so a kill
+loses at most the frame in flight and a resumed pass starts from a consistent graph.
+WAL journaling keeps readers (``bomc evaluate``, a viewer) off the writer's back.
+
+Tables:
+
+* ``schema_version`` -- one row; a file with another version or without our tables is
+  refused with a :class:`BomcError` instead of being silently "upgraded".
+* ``nodes`` -- the current state of every id ever issued (removed ones with state
+  ``removed``), so the next id continues from the max id ever issued.
+* ``node_history`` -- every event, append-only; :meth:`SiteStore.graph_after` rebuilds
+  the graph as it stood at the end of any session from it. Nothing is overwritten.
+* ``sessions`` -- one row per monitor pass: started/ended robot time and wall time (the
+  wall time is for people reading the report, never for timing), outcome, counts, report.
+* ``progress`` -- small JSON key/value pairs for resuming a mission (next waypoint index).
+
+Every sqlite3 failure (not a database, locked, disk full) becomes a ``BomcError`` naming
+the file, since a user meets these by pointing the tool at the wrong file or running two
+passes at once.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import json
+import sqlite3
+import threading
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bomc_bt.errors import BomcError
+from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
+
+SCHEMA_VERSION = 1
+FILENAME = "site.db"
+
+_SCHEMA = """
+CREATE TABLE schema_version (version INTEGER NOT NULL);
+CREATE TABLE nodes (
+    id INTEGER PRIMARY KEY, category TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL,
+    confidence REAL NOT NULL, first_session INTEGER NOT NULL, last_session INTEGER NOT NULL,
+    state TEXT NOT NULL, observations INTEGER NOT NULL, misses INTEGER NOT NULL);
+CREATE TABLE node_history (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT, id INTEGER NOT NULL, session INTEGER NOT NULL,
+    stamp REAL NOT NULL, kind TEXT NOT NULL, category TEXT NOT NULL,
+    x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, confidence REAL NOT NULL,
+    px REAL, py REAL, pz REAL);
+CREATE INDEX node_history_session ON node_history (session);
+CREATE TABLE sessions (
+    number INTEGER PRIMARY KEY, started_stamp REAL, started_wall TEXT NOT NULL,
+    ended_stamp REAL, ended_wall TEXT, outcome TEXT, counts TEXT, report TEXT, info TEXT);
+CREATE TABLE progress (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+"""
+_TABLES = {"schema_version", "nodes", "node_history", "sessions", "progress"}
+
+
+@dataclass
+class SessionRecord:
+    """One row of the ``sessions`` table."""
+
+    number: int
+    started_stamp: float | None
+    started_wall: str
+    ended_stamp: float | None = None
+    ended_wall: str | None = None
+    outcome: str | None = None
+    counts: dict[str, Any] = field(default_factory=dict)
+    report: dict[str, Any] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ended(self) -> bool:
+        return self.ended_wall is not None
+
+
+class SiteStore:
+    """The persistent graph of one site. ``path`` is ``<site>/site.db`` or the site folder."""
+
+    def __init__(self, path: str | Path, busy_timeout: float = 2.0):
+        path = Path(path)
+        if path.is_dir():
+            path = path / FILENAME
+        self.path = path
+        self._lock = threading.Lock()
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise BomcError(f"cannot create the site folder ({exc.strerror})", path) from None
+        with self._errors("open"):
+            self._db = sqlite3.connect(
+                str(path), timeout=busy_timeout, isolation_level=None, check_same_thread=False
+            )
+        try:
+            with self._errors("open"):
+                self._open()
+        except BomcError:
+            self._db.close()
+            raise
+
+    # ------------------------------------------------------------- plumbing
+    @contextlib.contextmanager
+    def _errors(self, action: str) -> Iterator[None]:
+        try:
+            yield
+        except sqlite3.DatabaseError as exc:
+            text = str(exc)
+            if "not a database" in text or "malformed" in text:
+                msg = f"not a bomc site store (the file is not an SQLite database or is corrupt: {text})"
+            elif "locked" in text or "busy" in text:
+                msg = f"the site store is locked by another process ({action}: {text})"
+            else:
+                msg = f"site store error during {action}: {text}"
+            raise BomcError(msg, self.path) from None
+
+    @contextlib.contextmanager
+    def _transaction(self, action: str) -> Iterator[sqlite3.Connection]:
+        """BEGIN IMMEDIATE ... COMMIT, rolled back on any exception (also non-sqlite ones)."""
+        with self._lock, self._errors(action):
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                yield self._db
+            except BaseException:
+                self._db.execute("ROLLBACK")
+                raise
+            self._db.execute("COMMIT")
+
+    def _query(self, sql: str, args: tuple = ()) -> list[tuple]:
+        with self._lock, self._errors("read"):
+            return self._db.execute(sql, args).fetchall()
+
+    def _open(self) -> None:
+        tables = {r[0] for r in self._db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        tables.discard("sqlite_sequence")
+        if not tables:
+            self._db.execute("PRAGMA journal_mode=WAL")
+            script = f"BEGIN IMMEDIATE;{_SCHEMA}INSERT INTO schema_version VALUES ({SCHEMA_VERSION});COMMIT;"
+            try:
+                self._db.executescript(script)
+            except BaseException:
+                if self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                raise
+            return
+        if not tables >= _TABLES:
+            missing = ", ".join(sorted(_TABLES - tables))
+            raise BomcError(f"not a bomc site store (missing tables: {missing})", self.path)
+        rows = self._db.execute("SELECT version FROM schema_version").fetchall()
+        if len(rows) != 1 or rows[0][0] != SCHEMA_VERSION:
+            found = rows[0][0] if len(rows) == 1 else "none"
+            raise BomcError(f"unsupported site store schema version {found} (expected {SCHEMA_VERSION})",
+                            self.path, "schema_version")
+        self._db.execute("PRAGMA journal_mode=WAL")
+
+    def close(self) -> None:
+        with self._lock:
+            self._db.close()
+
+    def __enter__(self) -> SiteStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------- sessions
+    def next_session(self) -> int:
+        """The number a new session should get: one past the highest recorded (1 if none)."""
+        rows = self._query("SELECT MAX(number) FROM sessions")
+        return (rows[0][0] or 0) + 1
+
+    def begin_session(self, number: int, info: dict[str, Any] | None = None) -> bool:
+        """Start session ``number`` (``info["stamp"]``: robot time). Returns True when resuming.
+
+        Beginning a session that was started but never ended resumes it (a killed pass);
+        one that already ended is refused, since its history is final.
+        """
+        info = dict(info or {})
+        with self._transaction("begin_session") as db:
+            row = db.execute("SELECT ended_wall FROM sessions WHERE number=?", (number,)).fetchone()
+            if row is not None:
+                if row[0] is not None:
+                    raise BomcError(f"session {number} has already ended", self.path, "sessions")
+                return True
+            db.execute(
+                "INSERT INTO sessions (number, started_stamp, started_wall, info) VALUES (?, ?, ?, ?)",
+                (number, _opt_float(info.get("stamp")), _now(), json.dumps(info, default=_jsonable)),
+            )
+            return False
+
+    def end_session(self, number: int, outcome: str, summary: dict[str, Any] | None = None) -> None:
+        """Close session ``number``: reconcile history with the nodes, store counts and report.
+
+        Reconciling appends an ``updated`` row for each present node whose position or
+        confidence differs from its last history row (refreshes between sparse events), so
+        :meth:`graph_after` is exact at session boundaries.
+        """
+        summary = dict(summary or {})
+        stamp = _opt_float(summary.get("stamp"))
+        with self._transaction("end_session") as db:
+            if db.execute("SELECT 1 FROM sessions WHERE number=?", (number,)).fetchone() is None:
+                raise BomcError(f"session {number} was never begun", self.path, "sessions")
+            self._reconcile(db, number, stamp)
+            counts = dict(db.execute(
+                "SELECT kind, COUNT(*) FROM node_history WHERE session=? GROUP BY kind", (number,)
+            ).fetchall())
+            present = db.execute("SELECT COUNT(*) FROM nodes WHERE state=?", (PRESENT,)).fetchone()[0]
+            counts["present"] = present
+            counts.update(summary.get("counts", {}))
+            db.execute(
+                "UPDATE sessions SET ended_stamp=?, ended_wall=?, outcome=?, counts=?, report=?"
+                " WHERE number=?",
+                (stamp, _now(), outcome, json.dumps(counts, default=_jsonable),
+                 json.dumps(summary, default=_jsonable), number),
+            )
+
+    def _reconcile(self, db: sqlite3.Connection, session: int, stamp: float | None) -> None:
+        rows = db.execute(
+            """SELECT n.id, n.category, n.x, n.y, n.z, n.confidence, h.x, h.y, h.z, h.confidence
+               FROM nodes n JOIN node_history h ON h.seq =
+                   (SELECT MAX(seq) FROM node_history WHERE id = n.id)
+               WHERE n.state = ?""",
+            (PRESENT,),
+        ).fetchall()
+        if stamp is None:
+            last = db.execute("SELECT MAX(stamp) FROM node_history WHERE session=?", (session,)).fetchone()[0]
+            stamp = last if last is not None else 0.0
+        for nid, cat, x, y, z, c, hx, hy, hz, hc in rows:
+            if (x, y, z, c) != (hx, hy, hz, hc):
+                db.execute(
+                    "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence)"
+                    " VALUES (?, ?, ?, 'updated', ?, ?, ?, ?, ?)",
+                    (nid, session, stamp, cat, x, y, z, c),
+                )
+
+    def sessions(self) -> list[SessionRecord]:
+        rows = self._query(
+            "SELECT number, started_stamp, started_wall, ended_stamp, ended_wall, outcome, counts, report,"
+            " info FROM sessions ORDER BY number"
+        )
+        return [
+            SessionRecord(n, s0, w0, s1, w1, out, _loads(counts), _loads(report), _loads(info))
+            for n, s0, w0, s1, w1, out, counts, report, info in rows
+        ]
+
+    # ---------------------------------------------------------------- graph
+    def record(
+        self, events: Iterable[Event], nodes_changed: Iterable[Node], progress: dict[str, Any] | None = None
+    ) -> None:
+        """Write one frame's events, changed nodes (and progress keys) in ONE transaction."""
+        with self._transaction("record") as db:
+            for e in events:
+                prev = (None, None, None) if e.previous is None else tuple(map(float, _xyz(e.previous)))
+                db.execute(
+                    "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence,"
+                    " px, py, pz) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (int(e.node_id), int(e.session), float(e.stamp), e.kind, e.category,
+                     *map(float, _xyz(e.position)), float(e.confidence), *prev),
+                )
+            for n in nodes_changed:
+                db.execute(
+                    "INSERT OR REPLACE INTO nodes VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (int(n.id), n.category, *map(float, _xyz(n.position)), float(n.confidence),
+                     int(n.first_session), int(n.last_session), n.state, int(n.observations), int(n.misses)),
+                )
+            for key, value in (progress or {}).items():
+                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+
+    def load_graph(self, params: AssociationParams) -> ObjectGraph:
+        """The live graph (present nodes); new ids continue past every id ever issued."""
+        nodes = self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
+        top = self._query("SELECT MAX(m) FROM (SELECT MAX(id) AS m FROM nodes UNION ALL"
+                          " SELECT MAX(id) FROM node_history)")[0][0]
+        return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1)
+
+    def nodes(self, include_removed: bool = False) -> list[Node]:
+        """The current node table (present nodes, or all ids ever issued)."""
+        if include_removed:
+            return self._nodes("SELECT * FROM nodes ORDER BY id", ())
+        return self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
+
+    def _nodes(self, sql: str, args: tuple) -> list[Node]:
+        return [
+            Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses)
+            for nid, cat, x, y, z, conf, first, last, state, obs, misses in self._query(sql, args)
+        ]
+
+    def graph_after(self, session: int) -> list[Node]:
+        """The present nodes as they stood at the end of ``session``, replayed from history.
+
+        ``observations`` counts the node's add/update/move events (history does not keep
+        every match) and ``misses`` is 0: both are bookkeeping, not part of the map.
+        """
+        nodes: dict[int, Node] = {}
+        for e in self.events(until=session):
+            node = nodes.get(e.node_id)
+            if e.kind == "added" or node is None:
+                nodes[e.node_id] = Node(e.node_id, e.category, e.position, e.confidence, e.session, e.session)
+                if e.kind == "removed":
+                    nodes[e.node_id].state = REMOVED
+                continue
+            node.position = e.position
+            node.confidence = e.confidence
+            if e.kind == "removed":
+                node.state = REMOVED
+            else:
+                node.state = PRESENT
+                node.last_session = e.session
+                node.observations += 1
+        return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
+
+    def events(self, session: int | None = None, until: int | None = None) -> list[Event]:
+        """History in write order: of one ``session``, up to and including ``until``, or all."""
+        sql = "SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz FROM node_history"
+        if session is not None:
+            rows = self._query(sql + " WHERE session=? ORDER BY seq", (session,))
+        elif until is not None:
+            rows = self._query(sql + " WHERE session<=? ORDER BY seq", (until,))
+        else:
+            rows = self._query(sql + " ORDER BY seq")
+        return [
+            Event(kind, nid, cat, np.array([x, y, z]), sess, stamp,
+                  None if px is None else np.array([px, py, pz]), conf)
+            for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz in rows
+        ]
+
+    # ------------------------------------------------------------- progress
+    def set_progress(self, key: str, value: Any) -> None:
+        """Store a JSON-able value (e.g. the next waypoint index) for resuming."""
+        with self._transaction("set_progress") as db:
+            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+
+    def get_progress(self, key: str, default: Any = None) -> Any:
+        rows = self._query("SELECT value FROM progress WHERE key=?", (key,))
+        return json.loads(rows[0][0]) if rows else default
+
+
+def _xyz(p: np.ndarray) -> np.ndarray:
+    arr = np.asarray(p, dtype=float).reshape(-1)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"position must be 3 finite numbers, got {arr.tolist()}")
+    return arr
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def _opt_float(value: Any) -> float | None:
+    return None if value is None else float(value)
+
+
+def _loads(text: str | None) -> dict[str, Any]:
+    return json.loads(text) if text else {}
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return str(value)

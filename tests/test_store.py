@@ -1,0 +1,136 @@
+"""The site store: persistence, history replay, atomic frames and clear errors."""
+
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pytest
+
+from bomc_bt.errors import BomcError
+from bomc_bt.graph import AssociationParams, Event, Observation
+from bomc_bt.store import SiteStore
+
+ROBUST = AssociationParams(mode="robust", confirm_misses=2, confirm_interval=0.5)
+
+
+def o(cat: str, x: float, y: float) -> Observation:
+    return Observation(cat, np.array([x, y, 0.5]), 0.8)
+
+
+def positions(nodes) -> dict[int, tuple[str, tuple[float, ...]]]:
+    return {n.id: (n.category, tuple(np.round(n.position, 9))) for n in nodes}
+
+
+def run_frame(store, graph, observations, expected, session, stamp):
+    events = graph.associate(observations, expected, session, stamp)
+    store.record(events, graph.drain_changed(), progress={"frame": stamp})
+    return events
+
+
+def test_round_trip_and_graph_after_three_sessions(tmp_path):
+    path = tmp_path / "site.db"
+    snapshots = {}
+    store = SiteStore(path)
+    graph = store.load_graph(ROBUST)
+    # session 1: three objects
+    store.begin_session(1, {"stamp": 0.0})
+    run_frame(store, graph, [o("chair", 0, 0), o("chair", 4, 0), o("table", 8, 0)], [], 1, 0.0)
+    run_frame(store, graph, [o("chair", 0.2, 0), o("chair", 4, 0), o("table", 8, 0)], [0, 1, 2], 1, 1.0)
+    store.end_session(1, "succeeded", {"stamp": 1.0})
+    snapshots[1] = positions(graph.nodes.values())
+    store.close()
+    # session 2 (reopened): the table is gone, a door appears
+    store = SiteStore(tmp_path)
+    graph = store.load_graph(ROBUST)
+    assert positions(graph.nodes.values()) == snapshots[1]
+    assert store.begin_session(2, {"stamp": 0.0}) is False
+    for t in (0.0, 1.0):
+        run_frame(store, graph, [o("chair", 0, 0), o("chair", 4, 0), o("door", 8, 3)], [0, 1, 2], 2, t)
+    store.end_session(2, "succeeded", {"stamp": 1.0})
+    snapshots[2] = positions(graph.nodes.values())
+    assert sorted(graph.nodes) == [0, 1, 3]
+    # session 3: chair 1 moved 2 m
+    store.begin_session(3, {"stamp": 0.0})
+    for t in (0.0, 1.0):
+        run_frame(store, graph, [o("chair", 0, 0), o("door", 8, 3)], [0, 1, 3], 3, t)
+    run_frame(store, graph, [o("chair", 4, 2)], [], 3, 2.0)
+    store.end_session(3, "succeeded", {"stamp": 2.0})
+    snapshots[3] = positions(graph.nodes.values())
+    assert sorted(graph.nodes) == [0, 1, 3]
+    for k in (1, 2, 3):
+        assert positions(store.graph_after(k)) == snapshots[k]
+    assert [e.kind for e in store.events(3) if e.node_id == 1] == ["removed", "moved"]
+    sessions = store.sessions()
+    assert [s.number for s in sessions] == [1, 2, 3] and all(s.ended for s in sessions)
+    assert sessions[1].counts["removed"] == 1 and sessions[1].counts["added"] == 1
+    assert sessions[2].outcome == "succeeded" and store.next_session() == 4
+    assert store.get_progress("frame") == 2.0
+    with pytest.raises(BomcError, match="already ended"):
+        store.begin_session(2)
+    store.close()
+
+
+def test_record_is_atomic(tmp_path):
+    store = SiteStore(tmp_path / "site.db")
+    graph = store.load_graph(ROBUST)
+    store.begin_session(1)
+    events = graph.associate([o("chair", 0, 0), o("door", 3, 0)], [], 1, 0.0)
+    bad = Event("added", 99, "chair", np.array([np.nan, 0.0, 0.0]), 1, 0.0)
+    with pytest.raises(ValueError):
+        store.record([events[0], bad, events[1]], graph.drain_changed(), progress={"waypoint": 4})
+    assert store.events() == [] and store.nodes(include_removed=True) == []
+    assert store.get_progress("waypoint") is None
+    store.record(events, graph.nodes.values(), progress={"waypoint": 4})
+    assert len(store.events()) == 2 and store.get_progress("waypoint") == 4
+    store.close()
+
+
+def test_resume_progress_and_unfinished_session(tmp_path):
+    with SiteStore(tmp_path / "site.db") as store:
+        store.begin_session(1, {"stamp": 5.0})
+        store.set_progress("next_waypoint", 7)
+        store.set_progress("plan", [[0.0, 1.0], [2.0, 3.0]])
+    with SiteStore(tmp_path / "site.db") as store:
+        assert store.begin_session(1) is True  # a killed pass resumes its session
+        assert store.get_progress("next_waypoint") == 7
+        assert store.get_progress("plan") == [[0.0, 1.0], [2.0, 3.0]]
+        assert store.get_progress("missing", default=0) == 0
+        assert store.sessions()[0].started_stamp == 5.0 and not store.sessions()[0].ended
+
+
+def test_corrupt_and_foreign_files_are_refused_with_the_file_name(tmp_path):
+    junk = tmp_path / "junk.db"
+    junk.write_bytes(b"this is not a database at all" * 100)
+    with pytest.raises(BomcError, match="junk.db.*not a bomc site store"):
+        SiteStore(junk)
+    foreign = tmp_path / "foreign.db"
+    con = sqlite3.connect(foreign)
+    con.execute("CREATE TABLE other (x INTEGER)")
+    con.commit()
+    con.close()
+    with pytest.raises(BomcError, match="foreign.db.*missing tables"):
+        SiteStore(foreign)
+    SiteStore(tmp_path / "old.db").close()
+    con = sqlite3.connect(tmp_path / "old.db")
+    con.execute("UPDATE schema_version SET version = 99")
+    con.commit()
+    con.close()
+    with pytest.raises(BomcError, match="old.db.*version 99"):
+        SiteStore(tmp_path / "old.db")
+
+
+def test_locked_database_is_a_bomc_error(tmp_path):
+    path = tmp_path / "site.db"
+    store = SiteStore(path, busy_timeout=0.05)
+    other = sqlite3.connect(path, isolation_level=None)
+    other.execute("BEGIN IMMEDIATE")
+    try:
+        with pytest.raises(BomcError, match="site.db.*locked"):
+            store.set_progress("k", 1)
+    finally:
+        other.execute("ROLLBACK")
+        other.close()
+    store.set_progress("k", 1)
+    assert store.get_progress("k") == 1
+    store.close()
