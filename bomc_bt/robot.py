@@ -79,6 +79,9 @@ class RGBDFrame:
     depth_range: tuple[float, float] = (0.3, 8.0)
     instances: np.ndarray | None = None
     instance_categories: dict[int, str] = field(default_factory=dict)
+    # Simulator only: pixels each instance would cover if nothing occluded it (its
+    # occluded fraction drives the simulated detector's miss rate).
+    instance_unoccluded: dict[int, int] = field(default_factory=dict)
 
     @property
     def T_map_camera(self) -> np.ndarray:

@@ -1,0 +1,247 @@
+"""Perception geometry: back-projection through full SE(3), robust centroid, FoV, visibility."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from bomc_bt.errors import BomcError
+from bomc_bt.geometry import Pose2D
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.perception.frames import Detection
+from bomc_bt.perception.projection import (
+    ProjectionParams,
+    ProjectionStats,
+    backproject,
+    detections_to_observations,
+    fov_polygon,
+    in_polygon,
+    robust_centroid,
+    visible,
+)
+from bomc_bt.robot import RGBDFrame
+from bomc_bt.sim.camera import CameraParams, SimCamera
+from bomc_bt.sim.detector import SimDetector, SimDetectorParams
+from bomc_bt.world import WorldObject
+
+RES = 0.05
+
+
+def empty_world(size_m: float = 30.0):
+    n = int(size_m / RES)
+    grid = OccupancyGrid(np.zeros((n, n), dtype=np.int8), RES, (-size_m / 2, -size_m / 2))
+    return np.zeros((n, n), dtype=bool), grid
+
+
+def see(objects, pose, tilt=15.0, walls=None, grid=None, scale=0.5):
+    cam = SimCamera(CameraParams(scale=scale, tilt_deg=tilt, depth_noise=0.0), seed=0)
+    if walls is None:
+        walls, grid = empty_world()
+    return cam.render(walls, grid, 2.5, list(objects), [], [], pose, pose, 0.0)
+
+
+def perfect_observations(frame, categories, params=None):
+    det = SimDetector(SimDetectorParams(preset="perfect"))
+    detections = det.segment(frame, det.detect(frame, categories))
+    return detections, detections_to_observations(frame, detections, params or ProjectionParams())
+
+
+def facing_panel(pose: Pose2D, distance: float, bearing: float, height: float) -> WorldObject:
+    """A thin square panel facing the camera: its visible points' mean is its centre."""
+    yaw = pose.yaw + bearing
+    x, y = pose.x + distance * math.cos(yaw), pose.y + distance * math.sin(yaw)
+    return WorldObject("p", "panel", (x, y, height), (0.01, 0.3, 0.3), yaw)
+
+
+def box_distance(points: np.ndarray, obj: WorldObject) -> np.ndarray:
+    """Distance of each point from the surface of an oriented box (0 on it)."""
+    c, s = math.cos(obj.yaw), math.sin(obj.yaw)
+    rel = points - np.asarray(obj.position)
+    local = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1], rel[:, 2]], axis=1)
+    q = np.abs(local) - np.asarray(obj.size) / 2.0
+    outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+    inside = np.minimum(q.max(axis=1), 0.0)
+    return np.abs(outside + inside)
+
+
+def test_backproject_inverts_the_pinhole_model():
+    K = np.array([[100.0, 0, 19.5], [0, 100.0, 14.5], [0, 0, 1]])
+    depth = np.full((30, 40), 2.0, dtype=np.float32)
+    depth[0, 0] = np.nan
+    depth[1, 1] = 9.0
+    mask = np.zeros((30, 40), dtype=bool)
+    mask[:4, :4] = True
+    mask[20, 30] = True
+    pts = backproject(depth, mask, K, stride=1, depth_range=(0.3, 8.0))
+    assert len(pts) == 16 - 2 + 1  # the block without its NaN and out-of-range pixels, and (20, 30)
+    assert pts[-1] == pytest.approx([(30 - 19.5) / 100.0 * 2.0, (20 - 14.5) / 100.0 * 2.0, 2.0])
+    strided = backproject(depth, mask, K, stride=2)
+    assert len(strided) == 4  # lattice pixels (0, 2), (2, 0), (2, 2) ((0, 0) is NaN) and (20, 30)
+    with pytest.raises(BomcError, match="mask"):
+        backproject(depth, mask[:10], K)
+
+
+VIEWS = {  # tilt -> (bearing, height, distance) of panels fully inside that view
+    0.0: [(0.0, 1.1, 3.0), (0.3, 0.6, 3.0), (-0.35, 1.5, 3.5)],
+    15.0: [(0.0, 1.0, 3.0), (0.3, 0.5, 3.0), (-0.35, 1.2, 3.5)],
+    30.0: [(0.0, 0.3, 2.5), (0.3, 0.5, 3.0), (-0.35, 0.15, 2.0)],
+}
+
+
+@pytest.mark.parametrize("pose", [Pose2D(0.0, 0.0, 0.0), Pose2D(3.0, -2.0, 2.3), Pose2D(-4.0, 5.0, -1.1)])
+@pytest.mark.parametrize("tilt", sorted(VIEWS))
+def test_detection_lands_at_the_object_map_position(pose, tilt):
+    for bearing, height, distance in VIEWS[tilt]:
+        panel = facing_panel(pose, distance, bearing, height)
+        frame = see([panel], pose, tilt)
+        dets, obs = perfect_observations(frame, ["panel"])
+        assert len(obs) == 1, (pose, tilt, bearing, height)
+        rows, cols = np.nonzero(dets[0].mask)
+        h, w = frame.shape
+        assert rows.min() > 0 and cols.min() > 0 and rows.max() < h - 1 and cols.max() < w - 1
+        assert np.linalg.norm(obs[0].position - np.asarray(panel.position)) < 0.03
+
+
+def test_every_backprojected_point_lies_on_the_box_surface():
+    pose = Pose2D(1.0, 2.0, 0.7)
+    box = WorldObject("t", "table", (3.0, 4.3, 0.375), (1.2, 0.8, 0.75), yaw=0.4)
+    frame = see([box], pose, tilt=20.0)
+    dets, obs = perfect_observations(frame, ["table"])
+    cam = backproject(frame.depth, dets[0].mask, frame.K)
+    T = frame.T_map_camera
+    pts = cam @ T[:3, :3].T + T[:3, 3]
+    assert box_distance(pts, box).max() < 0.005
+    # Objects at different heights keep different centroids (full 3D).
+    assert 0.3 < obs[0].position[2] < 0.75
+
+
+def test_localization_error_moves_observations_with_the_reported_pose():
+    true = Pose2D(0.0, 0.0, 0.0)
+    reported = Pose2D(0.2, 0.0, 0.0)
+    panel = facing_panel(true, 2.5, 0.0, 1.0)
+    cam = SimCamera(CameraParams(scale=0.5, depth_noise=0.0))
+    walls, grid = empty_world()
+    frame = cam.render(walls, grid, 2.5, [panel], [], [], true, reported, 0.0)
+    _, obs = perfect_observations(frame, ["panel"])
+    assert obs[0].position[0] == pytest.approx(panel.position[0] + 0.2, abs=0.03)
+
+
+def bleed_mask(mask: np.ndarray, fraction: float) -> np.ndarray:
+    """Dilate until the mask grew by ``fraction`` of its area."""
+    grown = mask.copy()
+    target = mask.sum() * (1.0 + fraction)
+    while grown.sum() < target:
+        grown = cv2.dilate(grown.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    return grown
+
+
+def test_robust_centroid_survives_mask_bleed_onto_a_far_wall():
+    walls, grid = empty_world()
+    _, col = grid.world_to_cell(5.0, 0.0)
+    walls[:, int(col):int(col) + 3] = True  # a wall 2.5 m behind the object
+    pose = Pose2D(0.0, 0.0, 0.0)
+    panel = WorldObject("p", "panel", (2.5, 0.0, 1.2), (0.05, 0.4, 0.4))
+    frame = see([panel], pose, walls=walls, grid=grid)
+    dets, _ = perfect_observations(frame, ["panel"])
+    bled = bleed_mask(dets[0].mask, 0.3)
+    assert np.isfinite(frame.depth[bled & ~dets[0].mask]).all()  # the bleed sees the wall
+    T = frame.T_map_camera
+    pts = backproject(frame.depth, bled, frame.K) @ T[:3, :3].T + T[:3, 3]
+    truth = np.array([2.475, 0.0, 1.2])  # the face towards the camera
+    assert np.linalg.norm(pts.mean(axis=0) - truth) > 0.3  # a plain mean is dragged away
+    assert np.linalg.norm(robust_centroid(pts, origin=T[:3, 3]) - truth) < 0.1
+    assert np.linalg.norm(robust_centroid(pts) - truth) < 0.1  # without the camera position too
+    obs = detections_to_observations(frame, [dets[0].with_mask(bled)], ProjectionParams())
+    assert np.linalg.norm(obs[0].position - truth) < 0.1
+
+
+def test_robust_centroid_keeps_a_deep_object_whole():
+    rng = np.random.default_rng(0)
+    pts = rng.uniform([2.0, -0.3, 0.0], [3.2, 0.3, 0.75], size=(2000, 3))  # a 1.2 m deep table
+    centre = robust_centroid(pts, origin=np.zeros(3))
+    assert np.linalg.norm(centre - pts.mean(axis=0)) < 0.05
+    assert robust_centroid(np.empty((0, 3))) is None
+    assert robust_centroid(np.full((5, 3), np.nan)) is None
+
+
+def test_unusable_detections_are_counted_not_raised():
+    pose = Pose2D(0.0, 0.0, 0.0)
+    panel = facing_panel(pose, 2.5, 0.0, 1.1)
+    frame = see([panel], pose)
+    dets, _ = perfect_observations(frame, ["panel"])
+    good = dets[0]
+    h, w = frame.shape
+    empty = good.with_mask(np.zeros((h, w), dtype=bool))
+    no_mask = Detection("panel", good.box, 0.9)
+    tiny = np.zeros((h, w), dtype=bool)
+    tiny[np.nonzero(good.mask)[0][0], np.nonzero(good.mask)[1][0]] = True
+    nan_frame = RGBDFrame(frame.stamp, None, np.full((h, w), np.nan, np.float32), frame.K,
+                          frame.T_map_base, frame.T_base_camera)
+    stats = ProjectionStats()
+    obs = detections_to_observations(frame, [empty, no_mask, good.with_mask(tiny), good],
+                                     ProjectionParams(), stats)
+    assert len(obs) == 1 and obs[0].category == "panel" and obs[0].confidence == 1.0
+    assert (stats.no_mask, stats.few_points, stats.observations, stats.detections) == (2, 1, 1, 4)
+    assert detections_to_observations(nan_frame, [good], ProjectionParams(), stats) == []
+    assert stats.no_depth == 1
+
+
+def test_params_scale_with_the_image():
+    p = ProjectionParams(min_points=30, stride=2)
+    assert p.scaled((480, 640)) == (2, 30)
+    stride, min_points = p.scaled((120, 160))
+    assert stride == 1 and min_points == 8  # same apparent size passes at a quarter resolution
+
+
+def test_fov_polygon_contains_what_is_in_view_and_not_what_is_behind():
+    walls, grid = empty_world()
+    _, col = grid.world_to_cell(4.0, 0.0)
+    walls[:, int(col):int(col) + 3] = True
+    pose = Pose2D(0.0, 0.0, 0.0)
+    frame = see([], pose, walls=walls, grid=grid)
+    poly = fov_polygon(frame, ProjectionParams())
+    assert poly.shape[1] == 2 and len(poly) >= 10
+    inside = in_polygon(poly, [[2.5, 0.3], [-1.5, 0.0], [6.0, 0.0], [2.5, 4.0], [3.8, -0.5]])
+    assert inside.tolist() == [True, False, False, False, True]
+    # Counter-clockwise, and capped at max_depth when nothing is in the way.
+    x, y = poly[:, 0], poly[:, 1]
+    assert np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)) > 0
+    open_frame = see([], Pose2D(0.0, 0.0, 1.0))
+    camera_xy = open_frame.T_map_camera[:2, 3]
+    near = np.linalg.norm(fov_polygon(open_frame, ProjectionParams(max_depth=3.0)) - camera_xy, axis=1)
+    far = np.linalg.norm(fov_polygon(open_frame, ProjectionParams(max_depth=6.0)) - camera_xy, axis=1)
+    assert 2.5 < near.max() < 3.0 * 1.23  # optical depth 3 m on the most oblique ray
+    assert far.max() > 5.0
+
+
+def test_fov_polygon_of_a_blind_frame_is_empty():
+    frame = see([], Pose2D(0.0, 0.0, 0.0))
+    frame.depth[:] = np.nan
+    assert fov_polygon(frame).shape == (0, 2)
+
+
+def test_visible_tells_seen_from_hidden():
+    walls, grid = empty_world()
+    _, col = grid.world_to_cell(3.0, 0.0)
+    walls[:, int(col):int(col) + 3] = True
+    pose = Pose2D(0.0, 0.0, 0.0)
+    chair = WorldObject("c", "chair", (2.0, 0.4, 0.45), (0.5, 0.5, 0.9))
+    frame = see([chair], pose, walls=walls, grid=grid)
+    _, obs = perfect_observations(frame, ["chair"])
+    points = np.array([
+        obs[0].position,  # the chair as observed
+        [4.5, 0.0, 0.5],  # behind the wall
+        [-2.0, 0.0, 0.5],  # behind the robot
+        [2.6, 0.4, 0.3],  # behind the chair
+        [2.5, -0.6, 0.05],  # on the free floor in view
+        [1.5, 3.0, 0.5],  # out of the image to the left
+    ])
+    assert visible(frame, points).tolist() == [True, False, False, False, True, False]
+    # Once the chair is gone, its old position is seen through: it is expected and missing.
+    empty = see([], pose, walls=walls, grid=grid)
+    assert visible(empty, points[:1]).tolist() == [True]
+    assert visible(empty, points[:1], max_depth=1.0).tolist() == [False]
+    assert visible(empty, np.empty((0, 3))).shape == (0,)
