@@ -1,0 +1,403 @@
+"""Global path planning on an occupancy grid: A* with clearance costs, like navfn.
+
+Why this shape: the planner runs inside the simulator's step loop and inside behaviours
+(reachability, traversal plans), so it must be fast in pure Python + numpy. Everything
+per cell is precomputed once per map with OpenCV (a Euclidean distance transform gives
+clearance, from which lethal cells and a decaying inflation cost follow, as in a ROS
+costmap with ``inflation_radius``); the search itself walks flat Python lists on a
+planning grid coarser than the map (0.1 m by default), with a one-cell blocked border
+so neighbour indices never wrap. The raw grid path is then shortened by line-of-sight
+smoothing that never trades away clearance.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from bomc_bt.grid import OccupancyGrid
+
+_SQRT2 = math.sqrt(2.0)
+
+
+@dataclass
+class PlannerParams:
+    """Costmap and search settings (names follow the ROS navigation stack)."""
+
+    robot_radius: float = 0.3  # m; closer than this to an obstacle is lethal
+    inflation_radius: float = 0.7  # m; the clearance cost decays to zero here
+    cost_weight: float = 3.0  # extra cost per metre next to lethal space (quadratic decay)
+    resolution: float = 0.1  # m; planning grid (never finer than the map)
+    allow_unknown: bool = False  # plan through unknown cells (navfn's allow_unknown)
+    goal_tolerance: float = 0.3  # m; a lethal goal may move this far to a traversable cell
+    escape_radius: float = 1.0  # m; how far to look for a traversable cell from a lethal start
+    heuristic_weight: float = 1.0  # > 1: weighted A* (fewer expansions, less clearance-optimal)
+
+    def __post_init__(self) -> None:
+        if self.robot_radius < 0 or self.inflation_radius < self.robot_radius:
+            raise ValueError("need 0 <= robot_radius <= inflation_radius")
+        if self.heuristic_weight < 1.0:
+            raise ValueError("heuristic_weight must be >= 1")
+        if self.resolution <= 0 or self.goal_tolerance < 0 or self.cost_weight < 0:
+            raise ValueError("resolution must be > 0; goal_tolerance, cost_weight >= 0")
+
+
+class GridPlanner:
+    """Plans on one snapshot of a grid; build a new planner when the map changes."""
+
+    def __init__(self, grid: OccupancyGrid, params: PlannerParams | None = None,
+                 extra_obstacles: np.ndarray | None = None):
+        self.params = params or PlannerParams()
+        self.grid = grid
+        factor = max(1, int(round(self.params.resolution / grid.resolution)))
+        self.factor = factor
+        self.resolution = grid.resolution * factor
+        obstacles = grid.occupied_mask()
+        if extra_obstacles is not None:
+            if extra_obstacles.shape != grid.data.shape:
+                raise ValueError("extra_obstacles must have the grid's shape")
+            obstacles = obstacles | extra_obstacles
+        clearance, unknown = self._coarse_fields(obstacles, grid.unknown_mask(), grid.resolution, factor)
+        p = self.params
+        lethal = clearance < p.robot_radius
+        if not p.allow_unknown:
+            lethal |= unknown
+        span = max(p.inflation_radius - p.robot_radius, 1e-9)
+        penalty = p.cost_weight * np.clip((p.inflation_radius - clearance) / span, 0.0, 1.0) ** 2
+        # Interior of the padded planning grid; row 0 / col 0 of the arrays are the border.
+        self.shape = lethal.shape  # unpadded (rows, cols)
+        self.lethal = lethal
+        self.clearance = clearance
+        self._cost_array = np.where(lethal, np.inf, 1.0 + penalty)
+        padded = np.pad(self._cost_array, 1, constant_values=np.inf)
+        self._w = padded.shape[1]
+        self._cost = padded.ravel().tolist()
+        w = self._w
+        self._moves = ((1, 1.0), (-1, 1.0), (w, 1.0), (-w, 1.0),
+                       (w + 1, _SQRT2), (w - 1, _SQRT2), (-w + 1, _SQRT2), (-w - 1, _SQRT2))
+        data = np.where(lethal, 100, 0).astype(np.int8)
+        data[unknown & ~lethal] = -1
+        self.planning_grid = OccupancyGrid(data, self.resolution, tuple(grid.origin))
+        self._labels: np.ndarray | None = None
+
+    # -- precomputation ------------------------------------------------------------------
+    @staticmethod
+    def _coarse_fields(obstacles: np.ndarray, unknown: np.ndarray, res: float, factor: int):
+        """Clearance (m) at each planning cell's centre, and which planning cells are unknown.
+
+        The distance transform runs on the fine map (exact walls), then area-averaging down
+        to the planning grid reads it at the coarse cell centre. Half a fine cell is taken
+        off because the transform measures to obstacle cell centres, not their faces.
+        """
+        h, w = obstacles.shape
+        ph, pw = (-h) % factor, (-w) % factor
+        free = np.pad((~obstacles).astype(np.uint8), ((0, ph), (0, pw)), mode="edge")
+        if free.all():
+            dist = np.full(free.shape, np.inf, dtype=np.float32)
+        else:
+            dist = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * res
+            dist = np.maximum(dist - 0.5 * res, 0.0)
+        unk = np.pad(unknown.astype(np.float32), ((0, ph), (0, pw)), constant_values=1.0)
+        if factor > 1:
+            size = (free.shape[1] // factor, free.shape[0] // factor)
+            if np.isfinite(dist).all():
+                dist = cv2.resize(dist, size, interpolation=cv2.INTER_AREA)
+            else:
+                dist = np.full((size[1], size[0]), np.inf, dtype=np.float32)
+            unk = cv2.resize(unk, size, interpolation=cv2.INTER_AREA)
+        return dist.astype(np.float64), unk > 0.5
+
+    # -- coordinates ---------------------------------------------------------------------
+    def cell(self, xy) -> tuple[int, int]:
+        """Planning-grid (row, col) of a map-frame point (may be out of bounds)."""
+        r, c = self.planning_grid.world_to_cell(xy[0], xy[1])
+        return int(r), int(c)
+
+    def _centre(self, r: int, c: int) -> np.ndarray:
+        x, y = self.planning_grid.cell_to_world(r, c)
+        return np.array([float(x), float(y)])
+
+    def _inside(self, r: int, c: int) -> bool:
+        return 0 <= r < self.shape[0] and 0 <= c < self.shape[1]
+
+    def traversable(self, xy) -> bool:
+        """True when the robot's centre may be at ``xy``."""
+        r, c = self.cell(xy)
+        return self._inside(r, c) and not bool(self.lethal[r, c])
+
+    def _nearest_traversable(self, xy, radius: float) -> tuple[int, int] | None:
+        """The traversable planning cell nearest to ``xy`` within ``radius`` metres."""
+        r0, c0 = self.cell(xy)
+        k = int(math.ceil(radius / self.resolution)) + 1
+        rlo, rhi = max(r0 - k, 0), min(r0 + k + 1, self.shape[0])
+        clo, chi = max(c0 - k, 0), min(c0 + k + 1, self.shape[1])
+        if rlo >= rhi or clo >= chi:
+            return None
+        rows, cols = np.nonzero(~self.lethal[rlo:rhi, clo:chi])
+        if rows.size == 0:
+            return None
+        x, y = self.planning_grid.cell_to_world(rows + rlo, cols + clo)
+        d = np.hypot(x - xy[0], y - xy[1])
+        i = int(np.argmin(d))
+        if d[i] > radius + 1e-9:
+            return None
+        return int(rows[i] + rlo), int(cols[i] + clo)
+
+    def nearest_traversable(self, xy, radius: float) -> np.ndarray | None:
+        """``xy`` itself when traversable, else the nearest traversable cell centre within
+        ``radius`` metres, else None (how a lethal goal is judged)."""
+        cell = self._endpoint(np.asarray(xy, dtype=float)[:2], radius)
+        if cell is None:
+            return None
+        return np.asarray(xy, dtype=float)[:2] if self.traversable(xy) else self._centre(*cell)
+
+    def path_is_clear(self, path: np.ndarray, skip: float = 0.0) -> bool:
+        """Whether every point of a polyline (sampled at half the planning resolution) is
+        traversable, ignoring the first ``skip`` metres (the robot may be hugging a wall)."""
+        path = np.asarray(path, dtype=float)
+        if len(path) == 0:
+            return True
+        seg = np.diff(path, axis=0)
+        lengths = np.hypot(seg[:, 0], seg[:, 1])
+        total = float(lengths.sum())
+        s = np.arange(skip, total, 0.5 * self.resolution)
+        if len(s) == 0:
+            return True
+        cum = np.concatenate([[0.0], np.cumsum(lengths)])
+        x = np.interp(s, cum, path[:, 0])
+        y = np.interp(s, cum, path[:, 1])
+        r, c = self.planning_grid.world_to_cell(x, y)
+        inside = (r >= 0) & (r < self.shape[0]) & (c >= 0) & (c < self.shape[1])
+        if not inside.all():
+            return False
+        return not bool(self.lethal[r, c].any())
+
+    def _endpoint(self, xy, radius: float) -> tuple[int, int] | None:
+        r, c = self.cell(xy)
+        if self._inside(r, c) and not self.lethal[r, c]:
+            return r, c
+        return self._nearest_traversable(xy, radius)
+
+    # -- search --------------------------------------------------------------------------
+    def plan(self, start_xy, goal_xy) -> np.ndarray | None:
+        """Waypoints (N, 2) from start to goal, or None when the goal is unreachable.
+
+        A lethal start (robot hugging a wall) escapes to the nearest traversable cell
+        within ``escape_radius``; a lethal goal moves to the nearest traversable cell
+        within ``goal_tolerance`` (the last waypoint is then that cell's centre).
+        """
+        start_xy = np.asarray(start_xy, dtype=float)[:2]
+        goal_xy = np.asarray(goal_xy, dtype=float)[:2]
+        s = self._endpoint(start_xy, self.params.escape_radius)
+        g = self._endpoint(goal_xy, self.params.goal_tolerance)
+        if s is None or g is None:
+            return None
+        if not self.connected(s, g):
+            return None
+        cells = self._astar(s, g)
+        if cells is None:
+            return None
+        cells = self._smooth(cells)
+        middle = [self._centre(r, c) for r, c in cells[1:-1]]
+        head = [start_xy] if self.traversable(start_xy) else [start_xy, self._centre(*cells[0])]
+        tail = [goal_xy] if self.traversable(goal_xy) else [self._centre(*cells[-1])]
+        pts = head + middle + tail
+        return _dedupe(np.array(pts, dtype=float))
+
+    def connected(self, a: tuple[int, int], b: tuple[int, int]) -> bool:
+        """Whether two traversable planning cells are in the same 8-connected component.
+
+        One OpenCV labelling per planner answers unreachable goals at once, instead of an
+        A* search that exhausts the whole component first.
+        """
+        labels = self._labels
+        if labels is None:
+            _, labels = cv2.connectedComponents((~self.lethal).astype(np.uint8), connectivity=8)
+            self._labels = labels
+        return bool(labels[a] == labels[b] and labels[a] != 0)
+
+    def distance(self, start_xy, goal_xy) -> float:
+        """Length (m) of the planned path, inf when unreachable."""
+        path = self.plan(start_xy, goal_xy)
+        return math.inf if path is None else path_length(path)
+
+    def _flat(self, r: int, c: int) -> int:
+        return (r + 1) * self._w + (c + 1)
+
+    def _unflat(self, i: int) -> tuple[int, int]:
+        return i // self._w - 1, i % self._w - 1
+
+    def _astar(self, s: tuple[int, int], g: tuple[int, int]) -> list[tuple[int, int]] | None:
+        """Weighted A* with the octile heuristic (every step costs at least its length).
+
+        The heuristic of every cell is computed for the goal with numpy up front, so the
+        inner loop is list lookups only.
+        """
+        w, cost, moves = self._w, self._cost, self._moves
+        start, goal = self._flat(*s), self._flat(*g)
+        rows, cols = np.divmod(np.arange(len(cost)), w)
+        dr = np.abs(rows - goal // w)
+        dc = np.abs(cols - goal % w)
+        # A hair above the weight breaks ties towards the goal (fewer expansions in the open).
+        scale = self.params.heuristic_weight * (1.0 + 1e-3)
+        heur = ((dr + dc + (_SQRT2 - 2.0) * np.minimum(dr, dc)) * scale).tolist()
+        best = [math.inf] * len(cost)
+        closed = [False] * len(cost)
+        self._last_costs: list[float] = []  # cost-to-come along the returned path
+        parent: dict[int, int] = {start: -1}
+        best[start] = 0.0
+        heap = [(0.0, 0.0, start)]
+        push, pop = heapq.heappush, heapq.heappop
+        while heap:
+            _, gs, i = pop(heap)
+            if i == goal:
+                out = []
+                while i != -1:
+                    out.append(self._unflat(i))
+                    self._last_costs.append(best[i])
+                    i = parent[i]
+                self._last_costs.reverse()
+                return out[::-1]
+            if closed[i]:
+                continue
+            closed[i] = True  # no re-expansion: weighted A* stays fast (bounded suboptimality)
+            for step, length in moves:
+                j = i + step
+                ng = gs + length * cost[j]
+                if ng < best[j] and not closed[j]:
+                    best[j] = ng
+                    parent[j] = i
+                    push(heap, (ng + heur[j], ng, j))
+        return None
+
+    def distances_from(self, start_xy) -> np.ndarray:
+        """Path length (m) from ``start_xy`` to every planning cell; inf where unreachable.
+
+        Geometric length along 8-connected traversable cells (no clearance cost), so it
+        answers "how far would I drive" for reachability and traversal ordering. Index it
+        with :meth:`cell` or :meth:`lookup`.
+        """
+        out = np.full(self.shape, np.inf)
+        s = self._endpoint(np.asarray(start_xy, dtype=float)[:2], self.params.escape_radius)
+        if s is None:
+            return out
+        w, cost, moves = self._w, self._cost, self._moves
+        start = self._flat(*s)
+        best = [math.inf] * len(cost)
+        best[start] = 0.0
+        heap = [(0.0, start)]
+        push, pop = heapq.heappush, heapq.heappop
+        while heap:
+            d, i = pop(heap)
+            if d > best[i]:
+                continue
+            for step, length in moves:
+                j = i + step
+                if cost[j] == math.inf:
+                    continue
+                nd = d + length
+                if nd < best[j]:
+                    best[j] = nd
+                    push(heap, (nd, j))
+        field = np.asarray(best).reshape(-1, w)[1:-1, 1:-1]
+        return field * self.resolution
+
+    def lookup(self, field: np.ndarray, xy) -> float:
+        """Value of a planning-grid field (e.g. from :meth:`distances_from`) at ``xy``."""
+        r, c = self.cell(xy)
+        return float(field[r, c]) if self._inside(r, c) else math.inf
+
+    # -- smoothing -----------------------------------------------------------------------
+    def _smooth(self, cells: list[tuple[int, int]]) -> list[tuple[int, int]]:
+        """Greedy line-of-sight shortcutting that never makes the path more expensive.
+
+        A shortcut from cell i to cell k is taken when every cell on the segment is
+        traversable and the segment's clearance-weighted cost is no higher than the cost
+        A* paid between the two cells, so smoothing straightens paths without pulling
+        them back towards walls.
+        """
+        if len(cells) <= 2:
+            return cells
+        arr = np.array(cells)
+        g = np.asarray(self._last_costs) if len(self._last_costs) == len(cells) else None
+        out = [cells[0]]
+        i, n = 0, len(cells)
+        while i < n - 1:
+            j = i + 1
+            step = 1
+            # Exponential then linear search for the farthest acceptable cell.
+            while j + step < n:
+                k = j + step
+                budget = (g[k] - g[i]) * (1.0 + 1e-6) + 1e-9 if g is not None else math.inf
+                if self._segment_cost(arr[i], arr[k]) <= budget:
+                    j = k
+                    step *= 2
+                else:
+                    if step == 1:
+                        break
+                    step = 1
+            out.append(cells[j])
+            i = j
+        return out
+
+    def _segment_cost(self, a: np.ndarray, b: np.ndarray) -> float:
+        """Cost of driving straight from cell a to cell b (inf through lethal cells)."""
+        n = int(max(abs(b[0] - a[0]), abs(b[1] - a[1]))) * 2 + 1
+        t = np.linspace(0.0, 1.0, n)
+        r = np.rint(a[0] + (b[0] - a[0]) * t).astype(np.int64)
+        c = np.rint(a[1] + (b[1] - a[1]) * t).astype(np.int64)
+        costs = self._cost_array[r, c]
+        if not np.isfinite(costs).all():
+            return math.inf
+        length = math.hypot(float(b[0] - a[0]), float(b[1] - a[1]))
+        # Trapezoid over the samples, excluding the start cell (A* charges arrival cells).
+        mean = float((costs[1:].sum() + 0.0) / max(n - 1, 1)) if n > 1 else float(costs[0])
+        return length * mean
+
+
+def path_clear_of(obstacles: np.ndarray, grid: OccupancyGrid, path: np.ndarray, radius: float,
+                  skip: float = 0.0) -> bool:
+    """Whether no ``obstacles`` cell (bool mask on ``grid``) lies within ``radius`` of a polyline.
+
+    A cheap test for "is my plan still good?" that needs no costmap rebuild: the path is
+    sampled every cell and a disc of cell offsets is looked up around each sample. The
+    first ``skip`` metres are ignored (the robot itself may be close to a wall).
+    """
+    path = np.asarray(path, dtype=float)
+    if len(path) < 2:
+        return True
+    lengths = np.hypot(*np.diff(path, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(lengths)])
+    s = np.arange(skip, cum[-1] + 1e-9, grid.resolution)
+    if len(s) == 0:
+        return True
+    r, c = grid.world_to_cell(np.interp(s, cum, path[:, 0]), np.interp(s, cum, path[:, 1]))
+    k = int(math.ceil(radius / grid.resolution))
+    dr, dc = np.mgrid[-k:k + 1, -k:k + 1]
+    disc = (dr**2 + dc**2) * grid.resolution**2 <= radius**2
+    rr = r[:, None] + dr[disc][None, :]
+    cc = c[:, None] + dc[disc][None, :]
+    inside = (rr >= 0) & (rr < grid.height) & (cc >= 0) & (cc < grid.width)
+    hits = obstacles[np.clip(rr, 0, grid.height - 1), np.clip(cc, 0, grid.width - 1)] & inside
+    return not bool(hits.any())
+
+
+def path_length(path: np.ndarray) -> float:
+    """Sum of segment lengths of an (N, 2) polyline."""
+    path = np.asarray(path, dtype=float)
+    if len(path) < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(path[:, :2], axis=0).T).sum())
+
+
+def _dedupe(path: np.ndarray) -> np.ndarray:
+    """Drop consecutive duplicate waypoints (keeps at least one)."""
+    if len(path) < 2:
+        return path
+    keep = np.ones(len(path), dtype=bool)
+    keep[1:] = np.hypot(*np.diff(path, axis=0).T) > 1e-9
+    return path[keep]

@@ -1,0 +1,186 @@
+"""Occupancy mapping from scans: the simulator's stand-in for GMapping, and a costmap layer.
+
+Both classes rasterise one scan the same way, with OpenCV instead of per-beam Python:
+the scan polygon (the sensor plus every beam end point, star-shaped around the sensor)
+is filled as "seen free", and the end points of beams that hit something are "occupied".
+Work is confined to the scan's bounding box, so an update costs the area the scan
+covers, not the whole map.
+
+* :class:`Mapper` accumulates log-odds like GMapping's grid and, like GMapping, only
+  integrates a scan after the robot moved ``linear_update`` or turned ``angular_update``.
+  The pose it is given is the SLAM estimate (the simulator passes the true pose: SLAM
+  drift is out of scope).
+* :class:`ObstacleLayer` is the local obstacle layer of a monitor-mode costmap: cells
+  hit by recent scans are obstacles until a later scan sees through them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from bomc_bt.geometry import Pose2D, wrap_angle
+from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from bomc_bt.robot import LaserScan
+
+
+@dataclass
+class MapperParams:
+    resolution: float = 0.05  # m (the live map uses the world map's geometry; see Mapper)
+    linear_update: float = 0.25  # m moved before the next scan is integrated (GMapping)
+    angular_update: float = 0.25  # rad turned before the next scan is integrated
+    hit_log_odds: float = 0.9
+    miss_log_odds: float = -0.7
+    clamp_log_odds: float = 5.0
+    occupied_threshold: float = 0.6  # log-odds above: occupied (100)
+    free_threshold: float = -0.6  # log-odds below: free (0)
+    max_free_range: float = 25.0  # m; beams with no return clear up to this range
+
+    def __post_init__(self) -> None:
+        if self.resolution <= 0 or self.hit_log_odds <= 0 or self.miss_log_odds >= 0:
+            raise ValueError("need resolution > 0, hit_log_odds > 0, miss_log_odds < 0")
+        if not self.free_threshold < self.occupied_threshold:
+            raise ValueError("free_threshold must be below occupied_threshold")
+
+
+@dataclass
+class RasterisedScan:
+    """One scan in grid cells: a bounding box and the free / hit masks inside it."""
+
+    r0: int
+    c0: int
+    free: np.ndarray  # bool (h, w), includes the hit cells' rays
+    hits: np.ndarray  # bool (h, w)
+
+
+def rasterise(scan: LaserScan, pose: Pose2D, grid: OccupancyGrid, free_range: float,
+              hit_range: float | None = None) -> RasterisedScan | None:
+    """Free polygon and hit cells of ``scan`` taken at ``pose``, clipped to ``grid``.
+
+    ``hit_range`` limits which returns count as hits (a costmap's obstacle_range); beams
+    without a return, or beyond it, clear up to ``free_range``.
+    """
+    ranges = np.asarray(scan.ranges, dtype=float)
+    angles = scan.angles + pose.yaw
+    finite = np.isfinite(ranges)
+    reach = np.where(finite, np.minimum(ranges, free_range), free_range)
+    is_hit = finite & (ranges <= (hit_range if hit_range is not None else scan.range_max))
+    res, (ox, oy) = grid.resolution, grid.origin
+    cos, sin = np.cos(angles), np.sin(angles)
+    ex = (pose.x + reach * cos - ox) / res
+    ey = (pose.y + reach * sin - oy) / res
+    sx, sy = (pose.x - ox) / res, (pose.y - oy) / res
+    c0 = max(int(math.floor(min(ex.min(), sx))) - 1, 0)
+    r0 = max(int(math.floor(min(ey.min(), sy))) - 1, 0)
+    c1 = min(int(math.ceil(max(ex.max(), sx))) + 2, grid.width)
+    r1 = min(int(math.ceil(max(ey.max(), sy))) + 2, grid.height)
+    if c0 >= c1 or r0 >= r1:
+        return None
+    h, w = r1 - r0, c1 - c0
+    poly = np.concatenate([[[sx, sy]], np.stack([ex, ey], axis=1)]) - [c0 + 0.5, r0 + 0.5]
+    free = np.zeros((h, w), dtype=np.uint8)
+    cv2.fillPoly(free, [np.rint(poly * 16.0).astype(np.int32).reshape(-1, 1, 2)], 1,
+                 lineType=cv2.LINE_8, shift=4)
+    hits = np.zeros((h, w), dtype=bool)
+    if is_hit.any():
+        # Half a cell past the return, so the hit lands in the cell that was hit.
+        push = ranges[is_hit] + 0.5 * res
+        hc = np.floor((pose.x + push * cos[is_hit] - ox) / res).astype(np.int64) - c0
+        hr = np.floor((pose.y + push * sin[is_hit] - oy) / res).astype(np.int64) - r0
+        ok = (hr >= 0) & (hr < h) & (hc >= 0) & (hc < w)
+        hits[hr[ok], hc[ok]] = True
+    return RasterisedScan(r0, c0, free.astype(bool), hits)
+
+
+class Mapper:
+    """A log-odds occupancy grid over the world map's extent, updated from scans."""
+
+    def __init__(self, width: int, height: int, resolution: float, origin: tuple[float, float],
+                 params: MapperParams | None = None):
+        self.params = params or MapperParams()
+        self.log_odds = np.zeros((height, width), dtype=np.float32)
+        self.geometry = OccupancyGrid.unknown(width, height, resolution, origin)
+        self.updates = 0
+        self._last_pose: Pose2D | None = None
+        self._map: OccupancyGrid | None = None
+
+    @classmethod
+    def like(cls, grid: OccupancyGrid, params: MapperParams | None = None) -> Mapper:
+        """A mapper covering ``grid``'s extent at ``params.resolution``."""
+        params = params or MapperParams()
+        scale = grid.resolution / params.resolution
+        width = max(1, int(round(grid.width * scale)))
+        height = max(1, int(round(grid.height * scale)))
+        return cls(width, height, params.resolution, tuple(grid.origin), params)
+
+    def needs_update(self, pose: Pose2D) -> bool:
+        """True when the robot moved or turned enough since the last integrated scan."""
+        last = self._last_pose
+        if last is None:
+            return True
+        p = self.params
+        return (pose.distance_to(last) >= p.linear_update
+                or abs(wrap_angle(pose.yaw - last.yaw)) >= p.angular_update)
+
+    def integrate(self, scan: LaserScan, pose: Pose2D) -> bool:
+        """Add a scan taken at ``pose``; returns whether the map changed."""
+        self._last_pose = pose
+        p = self.params
+        raster = rasterise(scan, pose, self.geometry, p.max_free_range)
+        if raster is None:
+            return False
+        delta = np.where(raster.free, np.float32(p.miss_log_odds), np.float32(0.0))
+        delta[raster.hits] = p.hit_log_odds
+        h, w = delta.shape
+        view = self.log_odds[raster.r0:raster.r0 + h, raster.c0:raster.c0 + w]
+        np.clip(view + delta, -p.clamp_log_odds, p.clamp_log_odds, out=view)
+        self.updates += 1
+        self._map = None
+        return True
+
+    def grid(self) -> OccupancyGrid:
+        """The current map (cached until the next integrated scan)."""
+        if self._map is None:
+            p = self.params
+            data = np.full(self.log_odds.shape, UNKNOWN, dtype=np.int8)
+            data[self.log_odds < p.free_threshold] = FREE
+            data[self.log_odds > p.occupied_threshold] = OCCUPIED
+            self._map = OccupancyGrid(data, self.geometry.resolution, tuple(self.geometry.origin))
+        return self._map
+
+
+@dataclass
+class ObstacleLayerParams:
+    obstacle_range: float = 4.0  # m; returns nearer than this mark obstacles
+    raytrace_range: float = 5.0  # m; free space up to this range clears obstacles
+    update_period: float = 0.2  # s of sim time between updates (a 5 Hz costmap)
+
+
+class ObstacleLayer:
+    """Obstacles seen by recent scans, on a saved map's grid (a costmap obstacle layer)."""
+
+    def __init__(self, grid: OccupancyGrid, params: ObstacleLayerParams | None = None):
+        self.params = params or ObstacleLayerParams()
+        self.geometry = OccupancyGrid.unknown(grid.width, grid.height, grid.resolution, grid.origin)
+        self.mask = np.zeros(grid.data.shape, dtype=bool)
+        self.version = 0
+
+    def update(self, scan: LaserScan, pose: Pose2D) -> None:
+        p = self.params
+        raster = rasterise(scan, pose, self.geometry, p.raytrace_range, p.obstacle_range)
+        if raster is None:
+            return
+        h, w = raster.free.shape
+        view = self.mask[raster.r0:raster.r0 + h, raster.c0:raster.c0 + w]
+        before = view.copy()
+        view &= ~raster.free
+        view |= raster.hits
+        if not np.array_equal(before, view):
+            self.version += 1
+
+    def clear(self) -> None:
+        self.mask[:] = False
+        self.version += 1

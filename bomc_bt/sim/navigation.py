@@ -1,0 +1,249 @@
+"""Simulated move_base: goal handles, periodic replanning, path following, progress checks.
+
+The navigator only *decides* (a velocity command per step and the goal's status); the
+robot applies the command to the true pose and checks collisions. Planning goes through
+a callback that returns a :class:`GridPlanner` for the current map (cached by the robot),
+so the navigator never knows whether the map is being built or was loaded.
+
+Status rules (what a behaviour sees):
+
+* SUCCEEDED: the (estimated) position is within ``goal_tolerance`` of the goal.
+* FAILED: there is no path on the map at all when the goal is given, or an injected
+  failure fired (``FaultParams.nav_failure_probability``).
+* BLOCKED: the goal is inside an obstacle (no traversable cell within the tolerance, in
+  the obstacle-aware map), or the robot made no progress along its plan for
+  ``progress_timeout`` seconds of sim time (a blocked corridor with no way around, a
+  person who will not move, an obstacle the lidar cannot see).
+* CANCELLED: a new goal or :meth:`cancel` pre-empted it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from bomc_bt.geometry import Pose2D, wrap_angle
+from bomc_bt.planner import GridPlanner, path_length
+from bomc_bt.robot import Status
+
+
+@dataclass
+class MotionParams:
+    max_speed: float = 0.6  # m/s
+    max_turn_rate: float = 1.0  # rad/s
+    progress_timeout: float = 15.0  # s of sim time without progress along the plan -> BLOCKED
+    progress_step: float = 0.1  # m of remaining path that counts as progress
+    replan_period: float = 2.0  # s between path checks (replan when the path is no longer clear)
+    blocked_replan_period: float = 0.5  # s between replans while the robot cannot move
+    lookahead: float = 0.6  # m along the path the controller steers to
+    turn_in_place_angle: float = 0.8  # rad of heading error above which the robot turns on the spot
+    heading_gain: float = 2.0  # turn rate per rad of heading error
+    body_radius: float = 0.27  # m; the base's footprint for collisions (<= planner robot_radius)
+
+    def __post_init__(self) -> None:
+        if self.max_speed <= 0 or self.max_turn_rate <= 0 or self.progress_timeout <= 0:
+            raise ValueError("max_speed, max_turn_rate and progress_timeout must be > 0")
+        if self.replan_period <= 0 or self.lookahead <= 0 or self.body_radius <= 0:
+            raise ValueError("replan_period, lookahead and body_radius must be > 0")
+
+
+class NavHandle:
+    """One navigation goal's status, as returned by ``navigate``."""
+
+    def __init__(self, goal: Pose2D):
+        self.goal = goal
+        self._status = Status.RUNNING
+        self._message = "driving"
+
+    def status(self) -> Status:
+        return self._status
+
+    @property
+    def message(self) -> str:
+        return self._message
+
+    def cancel(self) -> None:
+        self.finish(Status.CANCELLED, "cancelled")
+
+    def finish(self, status: Status, message: str) -> None:
+        if self._status is Status.RUNNING:
+            self._status = status
+            self._message = message
+
+
+PlannerSource = Callable[[], GridPlanner]
+PathCheck = Callable[[np.ndarray, float], bool]  # (path ahead, metres to skip) -> still clear?
+
+
+class Navigator:
+    """Drives one goal at a time; call :meth:`update` once per sim step."""
+
+    def __init__(self, params: MotionParams, goal_tolerance: float, rng: np.random.Generator,
+                 failure_probability: float = 0.0):
+        self.params = params
+        self.goal_tolerance = goal_tolerance
+        self.rng = rng
+        self.failure_probability = failure_probability
+        self.handle: NavHandle | None = None
+        self.path: np.ndarray | None = None
+        self._cum: np.ndarray | None = None
+        self._best = math.inf
+        self._last_progress = 0.0
+        self._next_check = 0.0
+        self._fail_at = math.inf
+
+    # -- goals ---------------------------------------------------------------------------
+    def start(self, goal: Pose2D, pose: Pose2D, now: float, planner: PlannerSource,
+              static_planner: PlannerSource) -> NavHandle:
+        """Begin driving to ``goal`` from the estimated ``pose`` (pre-empts the old goal)."""
+        if self.handle is not None:
+            self.handle.finish(Status.CANCELLED, "pre-empted by a new goal")
+        handle = NavHandle(goal)
+        self.handle = handle
+        self.path = None
+        self._best = math.inf
+        self._last_progress = now
+        self._fail_at = math.inf
+        current = planner()
+        if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
+            handle.finish(Status.BLOCKED, "goal is inside an obstacle")
+            return handle
+        path = current.plan(pose.xy, goal.xy)
+        if path is None:
+            static = static_planner()
+            if static is current or static.plan(pose.xy, goal.xy) is None:
+                handle.finish(Status.FAILED, "no path to the goal")
+                return handle
+            handle._message = "waiting: the way is blocked by obstacles"
+        else:
+            self._set_path(path)
+        self._next_check = now + self.params.replan_period
+        if self.failure_probability > 0 and self.rng.random() < self.failure_probability:
+            expected = path_length(path) / self.params.max_speed if path is not None else 10.0
+            self._fail_at = now + self.rng.uniform(0.0, max(expected, 1.0))
+        return handle
+
+    def cancel(self) -> None:
+        if self.handle is not None:
+            self.handle.cancel()
+        self.path = None
+
+    @property
+    def active(self) -> bool:
+        return self.handle is not None and self.handle.status() is Status.RUNNING
+
+    def _set_path(self, path: np.ndarray) -> None:
+        self.path = path
+        seg = np.hypot(*np.diff(path, axis=0).T) if len(path) > 1 else np.zeros(0)
+        self._cum = np.concatenate([[0.0], np.cumsum(seg)])
+        if self.handle is not None:
+            self.handle._message = "driving"
+
+    # -- per step ------------------------------------------------------------------------
+    def update(self, pose: Pose2D, now: float, planner: PlannerSource, path_clear: PathCheck,
+               stuck: bool) -> tuple[float, float]:
+        """The (v, w) command for this step from the estimated ``pose``; updates the status.
+
+        ``stuck`` says the robot could not move last step (collision): replan sooner.
+        """
+        handle = self.handle
+        if handle is None or handle.status() is not Status.RUNNING:
+            return 0.0, 0.0
+        goal = handle.goal
+        p = self.params
+        if now >= self._fail_at:
+            return self._end(Status.FAILED, "navigation aborted (injected failure)")
+        if math.hypot(goal.x - pose.x, goal.y - pose.y) <= self.goal_tolerance:
+            return self._end(Status.SUCCEEDED, "goal reached")
+        if now >= self._next_check:
+            result = self._check_path(pose, planner, path_clear, stuck)
+            if result is not None:
+                return result
+            self._next_check = now + (p.blocked_replan_period if stuck or self.path is None
+                                      else p.replan_period)
+        remaining = self._remaining(pose)
+        if remaining < self._best - p.progress_step:
+            self._best = remaining
+            self._last_progress = now
+        if now - self._last_progress >= p.progress_timeout:
+            return self._end(Status.BLOCKED, f"no progress for {p.progress_timeout:g} s")
+        if stuck and now + p.blocked_replan_period < self._next_check:
+            self._next_check = now + p.blocked_replan_period
+        if self.path is None:
+            return 0.0, 0.0
+        return self._follow(pose, goal)
+
+    def _end(self, status: Status, message: str) -> tuple[float, float]:
+        assert self.handle is not None
+        self.handle.finish(status, message)
+        self.path = None
+        return 0.0, 0.0
+
+    def _check_path(self, pose: Pose2D, planner: PlannerSource, path_clear: PathCheck,
+                    stuck: bool) -> tuple[float, float] | None:
+        """Replan when the current path is no longer clear, there is none, or we are stuck."""
+        assert self.handle is not None
+        if self.path is not None and not stuck and path_clear(self._ahead(pose), self.params.body_radius):
+            return None
+        current = planner()
+        goal = self.handle.goal
+        if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
+            return self._end(Status.BLOCKED, "goal is inside an obstacle")
+        path = current.plan(pose.xy, goal.xy)
+        if path is None:
+            self.path = None
+            self.handle._message = "waiting: the way is blocked by obstacles"
+            self._best = math.inf
+        else:
+            self._set_path(path)
+            self._best = path_length(path)
+        return None
+
+    # -- path geometry -------------------------------------------------------------------
+    def _closest(self, pose: Pose2D) -> float:
+        """Arc length of the path point closest to the robot."""
+        assert self.path is not None and self._cum is not None
+        a, b = self.path[:-1], self.path[1:]
+        if len(a) == 0:
+            return 0.0
+        ab = b - a
+        denom = np.maximum((ab**2).sum(axis=1), 1e-12)
+        t = np.clip(((pose.xy - a) * ab).sum(axis=1) / denom, 0.0, 1.0)
+        proj = a + ab * t[:, None]
+        i = int(np.argmin(np.hypot(*(proj - pose.xy).T)))
+        return float(self._cum[i] + t[i] * (self._cum[i + 1] - self._cum[i]))
+
+    def _remaining(self, pose: Pose2D) -> float:
+        if self.path is None or self._cum is None:
+            return math.inf
+        return float(self._cum[-1] - self._closest(pose))
+
+    def _point_at(self, s: float) -> np.ndarray:
+        assert self.path is not None and self._cum is not None
+        s = min(max(s, 0.0), float(self._cum[-1]))
+        return np.array([np.interp(s, self._cum, self.path[:, 0]), np.interp(s, self._cum, self.path[:, 1])])
+
+    def _ahead(self, pose: Pose2D) -> np.ndarray:
+        """The rest of the path from the robot's closest point."""
+        assert self.path is not None and self._cum is not None
+        s = self._closest(pose)
+        later = self._cum > s
+        return np.vstack([self._point_at(s), self.path[later]])
+
+    def _follow(self, pose: Pose2D, goal: Pose2D) -> tuple[float, float]:
+        """Pure pursuit with turn-in-place for large heading errors."""
+        p = self.params
+        target = self._point_at(self._closest(pose) + p.lookahead)
+        dx, dy = target[0] - pose.x, target[1] - pose.y
+        if math.hypot(dx, dy) < 1e-6:
+            dx, dy = goal.x - pose.x, goal.y - pose.y
+        err = wrap_angle(math.atan2(dy, dx) - pose.yaw)
+        w = max(-p.max_turn_rate, min(p.max_turn_rate, p.heading_gain * err))
+        if abs(err) > p.turn_in_place_angle:
+            return 0.0, math.copysign(p.max_turn_rate, err)
+        to_goal = math.hypot(goal.x - pose.x, goal.y - pose.y)
+        v = min(p.max_speed, max(0.15, to_goal)) * max(math.cos(err), 0.0)
+        return v, w

@@ -1,0 +1,143 @@
+"""The grid planner: paths around walls with clearance, unreachable goals, lethal ends."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from bomc_bt.planner import GridPlanner, PlannerParams, path_clear_of, path_length
+
+RES = 0.05
+
+
+def room(width_m: float, height_m: float) -> np.ndarray:
+    """Free room with a 0.1 m wall all round (rows = y)."""
+    data = np.full((int(round(height_m / RES)), int(round(width_m / RES))), FREE, dtype=np.int8)
+    data[:2, :] = data[-2:, :] = OCCUPIED
+    data[:, :2] = data[:, -2:] = OCCUPIED
+    return data
+
+
+def block(data: np.ndarray, x0: float, x1: float, y0: float, y1: float, value: int = OCCUPIED) -> None:
+    data[int(round(y0 / RES)):int(round(y1 / RES)), int(round(x0 / RES)):int(round(x1 / RES))] = value
+
+
+def grid(data: np.ndarray) -> OccupancyGrid:
+    return OccupancyGrid(data, RES, (0.0, 0.0))
+
+
+def clearance_along(g: OccupancyGrid, path: np.ndarray) -> float:
+    """Smallest distance (m) from densely sampled path points to an occupied cell's face."""
+    dist = cv2.distanceTransform((~g.occupied_mask()).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    lengths = np.hypot(*np.diff(path, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(lengths)])
+    s = np.linspace(0.0, cum[-1], 400)
+    r, c = g.world_to_cell(np.interp(s, cum, path[:, 0]), np.interp(s, cum, path[:, 1]))
+    return float((dist[r, c] * RES - 0.5 * RES).min())
+
+
+def test_path_goes_around_a_wall_and_keeps_clearance():
+    data = room(10, 10)
+    block(data, 4.9, 5.1, 0.0, 7.0)  # a wall from the bottom up to y = 7
+    g = grid(data)
+    planner = GridPlanner(g, PlannerParams())
+    path = planner.plan((2.0, 2.0), (8.0, 2.0))
+    assert path is not None
+    assert np.allclose(path[0], (2.0, 2.0)) and np.allclose(path[-1], (8.0, 2.0))
+    assert path[:, 1].max() > 7.0  # went over the top of the wall
+    assert path_length(path) > 2 * (7.0 - 2.0)
+    assert clearance_along(g, path) >= 0.3 - 0.05
+    assert len(path) < 20  # smoothed, not a staircase of cells
+    assert planner.distance((2.0, 2.0), (8.0, 2.0)) == pytest.approx(path_length(path))
+
+
+def test_prefers_the_middle_of_a_corridor():
+    data = room(10, 1.8)  # inner width 1.6 m
+    g = grid(data)
+    path = GridPlanner(g, PlannerParams()).plan((0.6, 0.55), (9.4, 0.55))
+    assert path is not None
+    assert np.all(np.diff(path[:, 0]) > 0)
+    middle = np.interp(np.linspace(3.0, 7.0, 9), path[:, 0], path[:, 1])
+    assert middle.min() > 0.75  # moved off the wall towards the centre (0.9)
+    no_cost = GridPlanner(g, PlannerParams(cost_weight=0.0)).plan((0.6, 0.55), (9.4, 0.55))
+    assert no_cost is not None and abs(no_cost[:, 1] - 0.55).max() < 0.1  # cost is what moved it
+
+
+def test_enclosed_goal_is_unreachable():
+    data = room(10, 10)
+    block(data, 6.0, 9.0, 6.0, 6.2)
+    block(data, 6.0, 9.0, 8.8, 9.0)
+    block(data, 6.0, 6.2, 6.0, 9.0)
+    block(data, 8.8, 9.0, 6.0, 9.0)
+    planner = GridPlanner(grid(data))
+    assert planner.plan((2.0, 2.0), (7.5, 7.5)) is None
+    assert planner.distance((2.0, 2.0), (7.5, 7.5)) == math.inf
+    field = planner.distances_from((2.0, 2.0))
+    assert planner.lookup(field, (7.5, 7.5)) == math.inf
+    assert planner.lookup(field, (5.0, 5.0)) == pytest.approx(math.hypot(3, 3), rel=0.1)
+
+
+def test_lethal_goal_snaps_within_tolerance_else_fails():
+    data = room(6, 6)
+    block(data, 2.9, 3.1, 0.0, 6.0)  # splits the room; x in [2.9, 3.1) is wall
+    planner = GridPlanner(grid(data), PlannerParams(goal_tolerance=0.3))
+    near_wall = planner.plan((1.0, 3.0), (2.65, 3.0))  # 0.25 m from the wall: lethal, but close to free
+    assert near_wall is not None
+    assert np.hypot(*(near_wall[-1] - (2.65, 3.0))) <= 0.3 + 1e-9
+    assert planner.traversable(near_wall[-1])
+    assert planner.plan((1.0, 3.0), (3.0, 3.0)) is None  # in the wall, nothing traversable near
+    assert planner.nearest_traversable((3.0, 3.0), 0.3) is None
+
+
+def test_start_hugging_a_wall_escapes():
+    data = room(6, 6)
+    planner = GridPlanner(grid(data))
+    start = (0.2, 3.0)  # 0.1 m from the wall face: lethal
+    assert not planner.traversable(start)
+    path = planner.plan(start, (4.0, 3.0))
+    assert path is not None and np.allclose(path[0], start)
+    assert planner.traversable(path[1])
+
+
+def test_unknown_space_only_with_allow_unknown():
+    data = room(10, 4)
+    block(data, 4.0, 6.0, 0.1, 3.9, UNKNOWN)  # an unexplored band across the room
+    g = grid(data)
+    assert GridPlanner(g, PlannerParams(allow_unknown=False)).plan((1.0, 2.0), (9.0, 2.0)) is None
+    path = GridPlanner(g, PlannerParams(allow_unknown=True)).plan((1.0, 2.0), (9.0, 2.0))
+    assert path is not None and path_length(path) == pytest.approx(8.0, rel=0.05)
+
+
+def test_extra_obstacles_block_and_path_check_notices():
+    data = room(10, 3)
+    g = grid(data)
+    path = GridPlanner(g).plan((1.0, 1.5), (9.0, 1.5))
+    assert path is not None
+    extra = np.zeros(data.shape, dtype=bool)
+    extra[:, int(5.0 / RES):int(5.4 / RES)] = True  # a barrier across the corridor
+    assert not path_clear_of(extra, g, path, 0.3)
+    assert path_clear_of(np.zeros_like(extra), g, path, 0.3)
+    blocked = GridPlanner(g, extra_obstacles=extra)
+    assert blocked.plan((1.0, 1.5), (9.0, 1.5)) is None
+    assert not blocked.path_is_clear(path) and GridPlanner(g).path_is_clear(path)
+
+
+def test_distance_field_agrees_with_planned_lengths():
+    data = room(10, 10)
+    block(data, 4.9, 5.1, 0.0, 7.0)
+    planner = GridPlanner(grid(data), PlannerParams(cost_weight=0.0, heuristic_weight=1.0))
+    field = planner.distances_from((2.0, 2.0))
+    for goal in [(8.0, 2.0), (2.0, 8.0), (8.0, 8.0)]:
+        planned = planner.distance((2.0, 2.0), goal)
+        assert planner.lookup(field, goal) == pytest.approx(planned, rel=0.08)
+
+
+def test_bad_parameters_are_rejected():
+    with pytest.raises(ValueError):
+        PlannerParams(robot_radius=0.8, inflation_radius=0.5)
+    with pytest.raises(ValueError):
+        PlannerParams(heuristic_weight=0.5)
