@@ -1,0 +1,477 @@
+"""Relocalizing a robot in a saved map from one laser scan (the simulator's AMCL).
+
+A monitor mission starts with the robot somewhere in a map built days earlier. On ROS,
+AMCL answers "where am I"; in the simulator this module does, by correlative scan
+matching against a likelihood field (Olson 2009): every beam endpoint scores
+``exp(-d^2 / 2 sigma^2)`` where ``d`` is its distance to the nearest occupied cell, and a
+pose scores the mean over its beams. Unknown cells are not obstacles: a saved map has
+unknown space beyond its walls, and a beam never ends there in a correct pose.
+
+The search is coarse to fine so that it fits inside a tick loop: a coarse grid over the
+search window (cell-aligned positions, so every beam is an integer cell offset and a
+whole yaw is one gather), then finer grids around the best few candidates with bilinear
+interpolation, each following its peak if it lies on the grid's edge. The field peaks on
+wall *faces* (inside a wall the distance to the free side counts), and refinement also
+zeroes a beam whose last 0.1-0.3 m cross an occupied cell, so a pose cannot slide through
+a thin wall to score on its far face; the surviving poses get a full ray test ("does any
+beam pass through a mapped wall?"). "Confident" needs two things, as a human reading
+AMCL's particle cloud would: a high score, and no clearly different pose (far away, or
+facing elsewhere) that explains the scan almost as well. The second check is what
+rejects long featureless corridors and repeated identical rooms.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from bomc_bt.geometry import Pose2D, wrap_angle
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.robot import LaserScan
+
+
+@dataclass
+class RelocalizationParams:
+    """Search windows, resolutions and the confidence test of :class:`ScanMatcher`."""
+
+    search_radius: float = 1.2  # m around the hint (covers a hint that is up to 1 m off)
+    search_angle: float = 0.6  # rad around the hint yaw (covers up to 30 deg of error)
+    linear_step: float = 0.1  # m, coarse grid (rounded to whole map cells)
+    angular_step: float = math.radians(2.0)  # rad, coarse grid
+    fine_linear_step: float = 0.02  # m, first refinement
+    fine_angular_step: float = math.radians(0.5)
+    final_linear_step: float = 0.01  # m, last refinement
+    final_angular_step: float = math.radians(0.2)
+    sigma: float = 0.1  # m, likelihood field std for refinement and the reported score
+    coarse_sigma: float = 0.25  # m, wider field for the coarse grid so its steps cannot miss the peak
+    min_score: float = 0.6  # mean beam likelihood needed to be confident
+    min_margin: float = 0.05  # best must beat the far runner-up by this fraction of its score
+    see_through_tolerance: float = 0.1  # m: a beam may pass this close to a wall before its end
+    wall_probe: tuple[float, ...] = (0.12, 0.2, 0.3)  # m before each end checked during refinement
+    ambiguity_distance: float = 1.0  # m: a runner-up farther than this is a different pose
+    ambiguity_angle: float = math.radians(45.0)  # rad: ... or one facing this much elsewhere
+    max_beams: int = 180  # beams used for the local coarse grid and refinement (evenly subsampled)
+    final_beams: int = 720  # beams used by the last refinement, where few poses are left to score
+    min_beams: int = 20  # fewer valid beams than this can never be confident
+    max_recentre: int = 8  # times a refinement grid may move to follow a peak off its edge
+    rivals: int = 3  # distinct coarse peaks far from the winner refined to find the runner-up
+    local_candidates: int = 4  # distinct coarse peaks refined in a local search
+    global_linear_step: float = 0.3  # m, coarse grid of candidate positions over the free space
+    global_angular_step: float = math.radians(3.0)
+    global_sigma: float = 0.3  # m, field for the global coarse grid
+    global_beams: int = 60  # beams used by the global coarse grid
+    global_clearance: float = 0.2  # m: candidate positions keep this distance from obstacles
+    global_candidates: int = 16  # distinct coarse peaks refined in a global search
+
+    def __post_init__(self) -> None:
+        positive = ("search_radius", "linear_step", "angular_step", "fine_linear_step", "fine_angular_step",
+                    "final_linear_step", "final_angular_step", "sigma", "coarse_sigma", "global_linear_step",
+                    "global_angular_step", "global_sigma", "ambiguity_distance", "ambiguity_angle")
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive")
+        if min(self.search_angle, self.global_clearance, self.see_through_tolerance, self.max_recentre,
+               *self.wall_probe) < 0:
+            raise ValueError("search_angle, global_clearance, see_through_tolerance, max_recentre and "
+                             "wall_probe must not be negative")
+        if not 0.0 <= self.min_margin < 1.0:
+            raise ValueError("min_margin must be in [0, 1)")
+        for name in ("max_beams", "final_beams", "global_beams", "local_candidates",
+                     "global_candidates", "rivals", "min_beams"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be at least 1")
+
+
+@dataclass
+class RelocalizationResult:
+    """The best pose, its score (mean beam likelihood in [0, 1]) and whether to trust it."""
+
+    pose: Pose2D
+    score: float
+    confident: bool
+    message: str
+    runner_up: Pose2D | None = None  # best clearly different pose, for diagnostics
+    runner_up_score: float = 0.0
+
+
+@dataclass
+class _Level:
+    """One refinement grid: +-half around the current pose in steps (metres, radians)."""
+
+    lin_half: float
+    lin_step: float
+    ang_half: float
+    ang_step: float
+    sigma: float
+    beams: int  # how many beams to score with
+
+
+@dataclass
+class _Beams:
+    """Endpoints of the beams that returned, in the robot frame."""
+
+    xy: np.ndarray  # (B, 2)
+
+    @property
+    def count(self) -> int:
+        return int(self.xy.shape[0])
+
+    def subsample(self, n: int) -> _Beams:
+        """Evenly keep ``n`` beams (all of them when there are fewer)."""
+        if self.count <= n:
+            return self
+        return _Beams(self.xy[np.unique(np.round(np.linspace(0, self.count - 1, n)).astype(np.int64))])
+
+    @property
+    def reach(self) -> float:
+        return float(np.hypot(self.xy[:, 0], self.xy[:, 1]).max(initial=0.0))
+
+    def for_grid(self, sigma: float, angular_step: float, min_count: int) -> _Beams:
+        """The beams a grid with this yaw step can score fairly.
+
+        A yaw off by half a step moves an endpoint at range r by r * step / 2; past the
+        range where that exceeds ``sigma`` a beam's likelihood says more about the grid's
+        quantisation than about the pose, so a coarse grid ignores those beams (keeping
+        at least the ``min_count`` nearest, for large halls).
+        """
+        r = np.hypot(self.xy[:, 0], self.xy[:, 1])
+        keep = r <= sigma / (0.5 * angular_step)
+        if np.count_nonzero(keep) < min(min_count, self.count):
+            keep = np.zeros(self.count, dtype=bool)
+            keep[np.argsort(r, kind="stable")[:min_count]] = True
+        return self if keep.all() else _Beams(self.xy[keep])
+
+
+@dataclass
+class ScanMatcher:
+    """Correlative scan matching of a :class:`LaserScan` against one saved map."""
+
+    grid: OccupancyGrid
+    params: RelocalizationParams = field(default_factory=RelocalizationParams)
+
+    def __post_init__(self) -> None:
+        self._res = float(self.grid.resolution)
+        self._dist = _surface_distance(self.grid)
+        self._occupied = self.grid.occupied_mask()
+        self._fields: dict = {}
+        self._candidate_cells: tuple[np.ndarray, np.ndarray] | None = None
+
+    # -- public ----------------------------------------------------------------------
+    def match(self, scan: LaserScan, hint: Pose2D | None,
+              global_search: bool = False) -> RelocalizationResult:
+        """Estimate the robot's pose in the map from ``scan``.
+
+        With a ``hint`` (and not ``global_search``) only poses within ``search_radius`` and
+        ``search_angle`` of it are considered; otherwise every free place of the map is.
+        """
+        p = self.params
+        beams = _valid_beams(scan)
+        fallback = hint if hint is not None else Pose2D(*self.grid.cell_to_world(0, 0), 0.0)
+        if beams.count < p.min_beams:
+            return RelocalizationResult(fallback, 0.0, False,
+                                        f"only {beams.count} valid beams (need {p.min_beams})")
+        if hint is None or global_search:
+            rows, cols = self._global_cells()
+            yaws = np.arange(-math.pi, math.pi, p.global_angular_step)
+            usable = beams.for_grid(p.global_sigma, p.global_angular_step, p.min_beams)
+            coarse = (p.global_sigma, usable.subsample(p.global_beams))
+            levels = [_Level(p.global_linear_step, p.linear_step, p.global_angular_step, p.angular_step,
+                             p.coarse_sigma, p.max_beams)]
+            n_keep = p.global_candidates
+        else:
+            rows, cols = self._local_cells(hint)
+            yaws = hint.yaw + np.arange(-p.search_angle, p.search_angle + 1e-9, p.angular_step)
+            coarse = (p.coarse_sigma,
+                      beams.for_grid(p.coarse_sigma, p.angular_step, p.min_beams).subsample(p.max_beams))
+            levels = []
+            n_keep = p.local_candidates
+        if rows.size == 0:
+            return RelocalizationResult(fallback, 0.0, False,
+                                        "no candidate position inside the map's free space")
+        # Halving steps: coarse -> half the coarse step -> fine -> final, each searching
+        # +-1 previous step (more when the peak is off the edge, see _refine).
+        mid_lin, mid_ang = 0.5 * p.linear_step, 0.5 * p.angular_step
+        levels += [
+            _Level(p.linear_step, mid_lin, p.angular_step, mid_ang, p.sigma, p.max_beams),
+            _Level(mid_lin, p.fine_linear_step, mid_ang, p.fine_angular_step, p.sigma, p.max_beams),
+            _Level(p.fine_linear_step, p.final_linear_step, p.fine_angular_step, p.final_angular_step,
+                   p.sigma, p.final_beams),
+        ]
+        return self._search(rows, cols, yaws, coarse, beams, levels, n_keep)
+
+    def score(self, scan: LaserScan, pose: Pose2D) -> float:
+        """The score :meth:`match` reports for ``scan`` taken at ``pose`` (0 without valid beams).
+
+        Mean beam likelihood, a beam that crosses a mapped wall counting as 0.
+        """
+        beams = _valid_beams(scan).subsample(self.params.final_beams)
+        return self._checked(pose, beams)[1]
+
+    # -- search ----------------------------------------------------------------------
+    def _search(self, rows, cols, yaws, coarse, beams, levels, n_keep) -> RelocalizationResult:
+        p = self.params
+        sigma_c, beams_c = coarse
+        scores = self._coarse_scores(rows, cols, yaws, beams_c, sigma_c)  # (Y, N)
+        xs, ys = self.grid.cell_to_world(rows, cols)
+        nms = (0.5 * p.ambiguity_distance, 0.5 * p.ambiguity_angle)
+        cand = _top_distinct(scores, xs, ys, yaws, n_keep, *nms)
+        # Candidates and rivals go through the first refinement level only, and are
+        # compared there (same beams, same grid); only the winner is refined further.
+        first, rest = levels[:-2], levels[-2:]
+        mid = beams.subsample(p.max_beams)
+        refined = [self._checked(self._refine(pose, beams, first)[0], mid) for pose in cand]
+        best_pose, best_score = max(refined, key=lambda r: r[1])
+        # The runner-up: the best coarse peaks clearly different from the winner.
+        far = _far_mask(xs, ys, yaws, best_pose, p.ambiguity_distance, p.ambiguity_angle)
+        masked = np.where(far, scores, -np.inf)
+        rivals = _top_distinct(masked, xs, ys, yaws, p.rivals, *nms)
+        rivals_refined = [self._checked(self._refine(pose, beams, first)[0], mid) for pose in rivals]
+        rivals_refined = [r for r in rivals_refined + refined if _is_far(r[0], best_pose, p)]
+        runner = max(rivals_refined, key=lambda r: r[1]) if rivals_refined else None
+        final_pose, _ = self._refine(best_pose, beams, rest)
+        final_score = self._checked(final_pose, beams.subsample(p.final_beams))[1]
+        return _verdict(final_pose, final_score, best_score, runner, beams.count, p)
+
+    def _checked(self, pose: Pose2D, beams: _Beams) -> tuple[Pose2D, float]:
+        """``pose`` and its score, where a beam that passes through a mapped wall scores 0.
+
+        The likelihood field only asks "does each endpoint lie on a wall"; a wrong pose
+        can satisfy that while its beams cross walls. Checking the crossings for the few
+        poses that survive the search is what keeps many wrong places from looking
+        confident. (No-returns are not checked: real lidars drop beams on glass and black
+        surfaces, and a missing return must not veto a correct pose.)
+        """
+        if beams.count == 0:
+            return pose, 0.0
+        wx, wy = _to_world(pose, beams.xy)
+        lik = self._lookup(wx, wy, self.params.sigma)
+        length = np.hypot(beams.xy[:, 0], beams.xy[:, 1]) - self.params.see_through_tolerance
+        through = self._crosses_wall(pose, wx, wy, length)
+        return pose, float(np.mean(np.where(through, 0.0, lik)))
+
+    def _crosses_wall(self, pose: Pose2D, wx: np.ndarray, wy: np.ndarray, length: np.ndarray) -> np.ndarray:
+        """Per ray from ``pose`` towards (wx, wy): an occupied cell within ``length``?"""
+        if len(wx) == 0:
+            return np.zeros(0, dtype=bool)
+        dx, dy = wx - pose.x, wy - pose.y
+        r = np.maximum(np.hypot(dx, dy), 1e-9)
+        step = 0.5 * self._res
+        t = np.arange(step, max(float(length.max()), step), step)
+        px = pose.x + (dx / r)[:, None] * t[None, :]
+        py = pose.y + (dy / r)[:, None] * t[None, :]
+        rows, cols = self.grid.world_to_cell(px, py)
+        inside = self.grid.in_bounds(rows, cols) & (t[None, :] < length[:, None])
+        occ = np.zeros(rows.shape, dtype=bool)
+        occ[inside] = self._occupied[rows[inside], cols[inside]]
+        return occ.any(axis=1)
+
+    def _refine(self, pose: Pose2D, beams: _Beams, levels: list[_Level]) -> tuple[Pose2D, float]:
+        """Grid search around ``pose`` at each level in turn (bilinear field lookups)."""
+        score = -1.0
+        for lv in levels:
+            n_lin = max(1, int(round(lv.lin_half / lv.lin_step)))
+            n_ang = max(1, int(round(lv.ang_half / lv.ang_step)))
+            used = beams.for_grid(lv.sigma, lv.ang_step, self.params.min_beams).subsample(lv.beams)
+            # Hill-climb: while the best lies on the window's edge the peak is further out
+            # (flat corridors make coarse peaks drift), so recentre and search again.
+            for _ in range(self.params.max_recentre + 1):
+                offs = np.arange(-n_lin, n_lin + 1)
+                di, dj = np.meshgrid(offs, offs, indexing="ij")
+                xy = np.stack([pose.x + lv.lin_step * di.ravel(), pose.y + lv.lin_step * dj.ravel()], axis=1)
+                yaws = pose.yaw + np.arange(-n_ang, n_ang + 1) * lv.ang_step
+                s = self._bilinear_scores(yaws, xy, used, lv.sigma)
+                iy, ix = np.unravel_index(int(np.argmax(s)), s.shape)
+                pose = Pose2D(float(xy[ix, 0]), float(xy[ix, 1]), wrap_angle(float(yaws[iy])))
+                score = float(s[iy, ix])
+                on_edge = max(abs(di.ravel()[ix]), abs(dj.ravel()[ix])) == n_lin or abs(iy - n_ang) == n_ang
+                if not on_edge:
+                    break
+        return pose, score
+
+    # -- candidate positions -----------------------------------------------------------
+    def _local_cells(self, hint: Pose2D) -> tuple[np.ndarray, np.ndarray]:
+        """Cell-aligned positions on the coarse step inside the search disc and the map."""
+        p = self.params
+        k = max(1, int(round(p.linear_step / self._res)))
+        n = int(math.ceil(p.search_radius / (k * self._res)))
+        r0, c0 = self.grid.world_to_cell(hint.x, hint.y)
+        dr, dc = np.meshgrid(np.arange(-n, n + 1) * k, np.arange(-n, n + 1) * k, indexing="ij")
+        rows, cols = (int(r0) + dr).ravel(), (int(c0) + dc).ravel()
+        xs, ys = self.grid.cell_to_world(rows, cols)
+        keep = self.grid.in_bounds(rows, cols) & (np.hypot(xs - hint.x, ys - hint.y) <= p.search_radius)
+        rows, cols = rows[keep], cols[keep]
+        # Prefer known-free places, but do not insist: a hint next to a wall must still work.
+        free = self.grid.data[rows, cols] == 0
+        return (rows[free], cols[free]) if free.any() else (rows, cols)
+
+    def _global_cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """Free cells with clearance on a coarse lattice: where the robot can stand."""
+        if self._candidate_cells is None:
+            p = self.params
+            k = max(1, int(round(p.global_linear_step / self._res)))
+            ok = (self.grid.data == 0) & (self._dist >= p.global_clearance)
+            lattice = np.zeros_like(ok)
+            lattice[k // 2::k, k // 2::k] = True
+            self._candidate_cells = np.nonzero(ok & lattice)
+        return self._candidate_cells
+
+    # -- scoring -----------------------------------------------------------------------
+    def _field(self, sigma: float, pad: int) -> np.ndarray:
+        """Likelihood field for ``sigma``, zero-padded by ``pad`` cells (float32, cached)."""
+        key = (round(sigma, 6), pad)
+        if key not in self._fields:
+            lik = np.exp(-0.5 * (self._dist / sigma) ** 2).astype(np.float32)
+            self._fields[key] = np.pad(lik, pad)
+        return self._fields[key]
+
+    def _coarse_scores(self, rows, cols, yaws, beams: _Beams, sigma: float) -> np.ndarray:
+        """Scores (Y, N) for cell-centred positions: one integer offset per beam and yaw."""
+        pad = 64 * int(math.ceil((beams.reach / self._res + 2) / 64))
+        fld = self._field(sigma, pad)
+        width = fld.shape[1]
+        flat = fld.ravel()
+        base = (rows.astype(np.int64) + pad) * width + (cols.astype(np.int64) + pad)
+        out = np.empty((len(yaws), len(base)), dtype=np.float32)
+        bx, by = beams.xy[:, 0], beams.xy[:, 1]
+        for i, yaw in enumerate(yaws):
+            c, s = math.cos(yaw), math.sin(yaw)
+            dc = np.floor((c * bx - s * by) / self._res + 0.5).astype(np.int64)
+            dr = np.floor((s * bx + c * by) / self._res + 0.5).astype(np.int64)
+            idx = (dr * width + dc)[:, None] + base[None, :]
+            out[i] = flat.take(idx).mean(axis=0)
+        return out
+
+    def _bilinear_scores(self, yaws, xy, beams: _Beams, sigma: float) -> np.ndarray:
+        """Scores (Y, N) for arbitrary positions ``xy`` (N, 2), interpolating the field.
+
+        A beam also scores 0 when a point shortly before its end lies in an occupied
+        cell: a cheap stand-in for :meth:`_checked`'s ray test that stops a pose from
+        sliding through a thin wall so that endpoints land on its far face.
+        """
+        yaws = np.asarray(yaws, dtype=float)
+        bx, by = beams.xy[:, 0], beams.xy[:, 1]
+        c, s = np.cos(yaws)[:, None, None], np.sin(yaws)[:, None, None]
+        rx = c * bx[None, :, None] - s * by[None, :, None]  # (Y, B, 1)
+        ry = s * bx[None, :, None] + c * by[None, :, None]
+        px, py = xy[None, None, :, 0], xy[None, None, :, 1]  # (1, 1, N)
+        lik = self._lookup(rx + px, ry + py, sigma)  # (Y, B, N)
+        if self.params.wall_probe:
+            r = np.maximum(np.hypot(bx, by), 1e-9)
+            back = np.stack([np.maximum(r - d, 0.0) / r for d in self.params.wall_probe])  # (K, B)
+            occ = self._occupied_padded()
+            h, w = occ.shape
+            ox, oy = self.grid.origin
+            f = back[:, None, :, None]  # (K, 1, B, 1)
+            col = np.clip((f * rx[None] + px[None] - ox) / self._res + 1.0, 0, w - 1).astype(np.int64)
+            row = np.clip((f * ry[None] + py[None] - oy) / self._res + 1.0, 0, h - 1).astype(np.int64)
+            blocked = occ.ravel().take(row * w + col).any(axis=0)  # (Y, B, N)
+            lik = np.where(blocked, 0.0, lik)
+        return lik.mean(axis=1)
+
+    def _occupied_padded(self) -> np.ndarray:
+        if "occ" not in self._fields:
+            self._fields["occ"] = np.pad(self._occupied, 1)
+        return self._fields["occ"]
+
+    def _lookup(self, wx: np.ndarray, wy: np.ndarray, sigma: float) -> np.ndarray:
+        """Bilinearly interpolated likelihood at map-frame points (0 outside the map)."""
+        fld = self._field(sigma, 1)
+        h, w = fld.shape
+        flat = fld.ravel()
+        ox, oy = self.grid.origin
+        # Continuous coordinates with cell centres at integers, in the 1-cell padded field.
+        fx = np.clip((wx - ox) / self._res + 0.5, 0.0, w - 1.000001)
+        fy = np.clip((wy - oy) / self._res + 0.5, 0.0, h - 1.000001)
+        x0, y0 = fx.astype(np.int64), fy.astype(np.int64)
+        tx, ty = fx - x0, fy - y0
+        i00 = y0 * w + x0
+        return ((1 - ty) * ((1 - tx) * flat.take(i00) + tx * flat.take(i00 + 1))
+                + ty * ((1 - tx) * flat.take(i00 + w) + tx * flat.take(i00 + w + 1)))
+
+
+# -- helpers -------------------------------------------------------------------------------
+def _surface_distance(grid: OccupancyGrid) -> np.ndarray:
+    """Distance (m) from each cell centre to the nearest obstacle *surface* a beam can hit.
+
+    Outside obstacles that is the distance to the nearest occupied cell; inside, the
+    distance to the nearest free cell, so the field peaks on a wall's face and not all
+    through a thick wall (a robot seeing one side of a 20 cm wall must not be free to
+    slide 20 cm into it). Both are measured to the cell edge, half a cell nearer than
+    the centre, because a beam ends where the wall begins.
+    """
+    occupied = grid.occupied_mask()
+    free = grid.free_mask()
+    big = np.float32(1e6)
+    d_out = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    if not occupied.any():
+        d_out[:] = big
+    d_in = cv2.distanceTransform((~free).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    if not free.any():
+        d_in[:] = big
+    dist = np.where(occupied, d_in, d_out).astype(np.float64) * grid.resolution
+    return np.maximum(dist - 0.5 * grid.resolution, 0.0)
+
+
+def _valid_beams(scan: LaserScan) -> _Beams:
+    """Endpoints of beams that hit something (finite, positive, below range_max)."""
+    r = np.asarray(scan.ranges, dtype=np.float64)
+    a = scan.angles
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(r) & (r > 0.0) & (r < scan.range_max)
+    return _Beams(np.stack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])], axis=1))
+
+
+def _to_world(pose: Pose2D, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+    return pose.x + c * xy[:, 0] - s * xy[:, 1], pose.y + s * xy[:, 0] + c * xy[:, 1]
+
+
+def _top_distinct(scores, xs, ys, yaws, n, min_dist, min_angle) -> list[Pose2D]:
+    """Up to ``n`` best (yaw, position) entries that are pairwise distinct (greedy NMS)."""
+    flat = scores.ravel()
+    m = min(flat.size, max(50 * n, 500))
+    top = np.argpartition(-flat, m - 1)[:m] if m < flat.size else np.arange(flat.size)
+    top = top[np.argsort(-flat[top], kind="stable")]
+    kept: list[Pose2D] = []
+    for t in top:
+        if not np.isfinite(flat[t]):
+            break
+        iy, ix = divmod(int(t), scores.shape[1])
+        pose = Pose2D(float(xs[ix]), float(ys[ix]), wrap_angle(float(yaws[iy])))
+        if all(pose.distance_to(k) > min_dist or abs(wrap_angle(pose.yaw - k.yaw)) > min_angle for k in kept):
+            kept.append(pose)
+            if len(kept) == n:
+                break
+    return kept
+
+
+def _far_mask(xs, ys, yaws, pose: Pose2D, distance: float, angle: float) -> np.ndarray:
+    """(Y, N) mask of coarse candidates clearly different from ``pose``."""
+    far_pos = np.hypot(xs - pose.x, ys - pose.y) > distance
+    dyaw = np.abs((yaws - pose.yaw + math.pi) % (2 * math.pi) - math.pi)
+    return far_pos[None, :] | (dyaw > angle)[:, None]
+
+
+def _is_far(a: Pose2D, b: Pose2D, p: RelocalizationParams) -> bool:
+    return a.distance_to(b) > p.ambiguity_distance or abs(wrap_angle(a.yaw - b.yaw)) > p.ambiguity_angle
+
+
+def _verdict(best: Pose2D, score: float, comparable: float, runner, n_beams: int,
+             p: RelocalizationParams) -> RelocalizationResult:
+    """Confident = a good score and no clearly different pose that scores almost as well.
+
+    ``comparable`` is the winner's score at the rivals' refinement level (same beams).
+    """
+    r_pose, r_score = runner if runner is not None else (None, 0.0)
+    where = f"score {score:.2f} over {n_beams} beams"
+    if r_pose is not None:
+        where += f", runner-up {r_score:.2f} at {r_pose.distance_to(best):.1f} m"
+    if score < p.min_score:
+        return RelocalizationResult(best, score, False, f"poor match: {where} (min_score {p.min_score})",
+                                    r_pose, r_score)
+    if r_score > (1.0 - p.min_margin) * comparable:
+        return RelocalizationResult(best, score, False, f"ambiguous: {where}", r_pose, r_score)
+    return RelocalizationResult(best, score, True, f"localized: {where}", r_pose, r_score)
