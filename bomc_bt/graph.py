@@ -127,6 +127,7 @@ class AssociationParams:
     move_radius: float = 3.0  # robust: how far a removed/pending object may have moved
     position_smoothing: float = 0.3  # robust: running-average weight of a new observation
     report_distance: float = 0.1  # robust: drift (m) that makes a refresh an "updated" event
+    vertical_weight: float = 0.5  # robust: weight of height differences in distances (paper: 1)
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -140,6 +141,8 @@ class AssociationParams:
             raise ValueError("confirm_misses must be >= 1")
         if self.confirm_interval < 0 or self.move_radius < 0 or self.report_distance < 0:
             raise ValueError("confirm_interval, move_radius and report_distance must be >= 0")
+        if not 0.0 <= self.vertical_weight <= 1.0:
+            raise ValueError("vertical_weight must be in [0, 1]")
         if not 0.0 < self.position_smoothing <= 1.0:
             raise ValueError("position_smoothing must be in (0, 1]")
 
@@ -173,6 +176,10 @@ class ObjectGraph:
         self.params = params
         self.nodes: dict[int, Node] = {}
         self._cell = max([params.default_distance, *params.per_category.values()])
+        # Distances are measured on (x, y, w*z): robust mode down-weights height, since a
+        # tall object seen cut off by the image edge has its centroid too low.
+        w = params.vertical_weight if params.mode == "robust" else 1.0
+        self._scale = np.array([1.0, 1.0, w])
         self._pos = np.zeros((1024, 3))
         self._slot_id = np.full(1024, -1, dtype=np.int64)
         self._slot_of: dict[int, int] = {}
@@ -216,7 +223,8 @@ class ObjectGraph:
         pos = self._pos[slots]
         mask = points_in_polygon(pos[:, :2], poly)
         if z_range is not None:
-            mask &= (pos[:, 2] >= z_range[0]) & (pos[:, 2] <= z_range[1])
+            z = np.array([self.nodes[int(i)].position[2] for i in self._slot_id[slots]])
+            mask &= (z >= z_range[0]) & (z <= z_range[1])
         ids = np.sort(self._slot_id[slots[mask]])
         return [self.nodes[int(i)] for i in ids]
 
@@ -224,7 +232,7 @@ class ObjectGraph:
         self, category: str, position: np.ndarray, max_distance: float | None = None
     ) -> tuple[Node | None, float]:
         """Closest present node of ``category`` (and its distance), or (None, inf)."""
-        p = np.asarray(position, dtype=float).reshape(3)
+        p = np.asarray(position, dtype=float).reshape(3) * self._scale
         members = self._cat_slots.get(category)
         if not members:
             return None, math.inf
@@ -243,7 +251,7 @@ class ObjectGraph:
 
     def within(self, category: str, position: np.ndarray, radius: float) -> list[tuple[Node, float]]:
         """Present nodes of ``category`` within ``radius`` of ``position``, nearest first."""
-        ids, d2 = self._within(category, np.asarray(position, dtype=float).reshape(3), radius)
+        ids, d2 = self._within(category, np.asarray(position, dtype=float).reshape(3) * self._scale, radius)
         order = np.lexsort((ids, d2))
         return [(self.nodes[int(ids[k])], math.sqrt(float(d2[k]))) for k in order]
 
@@ -331,14 +339,17 @@ class ObjectGraph:
         ocode = np.array([codes.setdefault(o.category, len(codes)) for o in obs])
         vcode = np.array([codes.get(self.nodes[i].category, -1) for i in expected])
         delta = np.array([self.threshold(self.nodes[i].category) for i in expected])
-        d = self._pos[[self._slot_of[i] for i in expected]][:, None, :] - np.array([o.position for o in obs])
+        obs_pos = np.array([o.position for o in obs]) * self._scale
+        d = self._pos[[self._slot_of[i] for i in expected]][:, None, :] - obs_pos
         d2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2]
         return (vcode[:, None] == ocode[None, :]) & (d2 <= (delta * delta)[:, None])
 
     def _near_any(self, o: Observation, nodes: list[Node]) -> bool:
         delta = self.threshold(o.category)
         return any(
-            v.category == o.category and _dist2_scalar(v.position, o.position) <= delta * delta for v in nodes
+            v.category == o.category
+            and _dist2_scalar(v.position * self._scale, o.position * self._scale) <= delta * delta
+            for v in nodes
         )
 
     def _refresh(self, v: Node, o: Observation, session: int, stamp: float) -> Event | None:
@@ -377,7 +388,7 @@ class ObjectGraph:
         for v in (*self._removed_now.values(), *pending):
             if v.category != o.category:
                 continue
-            d = float(np.linalg.norm(v.position - o.position))
+            d = float(np.linalg.norm((v.position - o.position) * self._scale))
             if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]):
                 best = (d, v.id, v)
         return None if best is None else best[2]
@@ -446,7 +457,7 @@ class ObjectGraph:
                 self._slot_id = np.concatenate([self._slot_id, np.full(len(self._slot_id), -1, np.int64)])
             slot = self._used
             self._used += 1
-        self._pos[slot] = node.position
+        self._pos[slot] = node.position * self._scale
         self._slot_id[slot] = node.id
         self._slot_of[node.id] = slot
         self.nodes[node.id] = node
@@ -479,7 +490,7 @@ class ObjectGraph:
             self._cells.setdefault(new, []).append(slot)
             self._cat_cells.setdefault((node.category, *new), []).append(slot)
         node.position = np.asarray(position, dtype=float)
-        self._pos[slot] = node.position
+        self._pos[slot] = node.position * self._scale
 
     def _cat_candidates(self, category: str, p: np.ndarray, radius: float) -> np.ndarray:
         r = max(1, math.ceil(radius / self._cell))
@@ -512,7 +523,7 @@ class ObjectGraph:
             return [empty] * len(queries)
         slots = np.concatenate(gathered)
         owner = np.repeat(np.arange(len(queries)), counts)
-        qpos = np.array([o.position for o in queries])
+        qpos = np.array([o.position for o in queries]) * self._scale
         radius = np.array([self.threshold(o.category) for o in queries])
         d = self._pos[slots] - qpos[owner]
         d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]

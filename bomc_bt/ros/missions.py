@@ -25,6 +25,8 @@ from bomc_bt.site import Site
 
 def ros_params(config: Config) -> RosParams:
     """The ``ros:`` section as a validated record (errors name the config file)."""
+    if isinstance(config.ros, RosParams):
+        return config.ros
     return from_mapping(RosParams, config.ros, config.source[-1] if config.source else None, "ros")
 
 

@@ -94,6 +94,8 @@ class Navigator:
         self._last_progress = 0.0
         self._next_check = 0.0
         self._fail_at = math.inf
+        self._stuck_since: float | None = None
+        self._backup_until = -math.inf
 
     # -- goals ---------------------------------------------------------------------------
     def start(self, goal: Pose2D, pose: Pose2D, now: float, planner: PlannerSource,
@@ -172,9 +174,33 @@ class Navigator:
             return self._end(Status.BLOCKED, f"no progress for {p.progress_timeout:g} s")
         if stuck and now + p.blocked_replan_period < self._next_check:
             self._next_check = now + p.blocked_replan_period
+        recovery = self._recovery(now, stuck)
+        if recovery is not None:
+            return recovery
         if self.path is None:
             return 0.0, 0.0
         return self._follow(pose, goal)
+
+    def _recovery(self, now: float, stuck: bool) -> tuple[float, float] | None:
+        """move_base's back-up recovery: wedged against something for a while, reverse a little.
+
+        A robot whose every forward step is refused (it brushed a chair, its planned path
+        starts inside the inflated zone) would otherwise wait for the progress timeout;
+        backing off 0.3 m frees it and the next replan goes around.
+        """
+        if now < self._backup_until:
+            return -0.2, 0.0
+        if not stuck:
+            self._stuck_since = None
+            return None
+        if self._stuck_since is None:
+            self._stuck_since = now
+        if now - self._stuck_since >= 1.0:
+            self._stuck_since = None
+            self._backup_until = now + 1.5
+            self._next_check = now + 1.5
+            return -0.2, 0.0
+        return None
 
     def _end(self, status: Status, message: str) -> tuple[float, float]:
         assert self.handle is not None

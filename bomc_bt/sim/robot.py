@@ -222,7 +222,7 @@ class SimRobot:
         mid = t.yaw + 0.5 * w * dt
         x, y = t.x + v * math.cos(mid) * dt, t.y + v * math.sin(mid) * dt
         self._stuck = False
-        if v > 0:
+        if v != 0:
             radius = self.params.motion.body_radius
             before = self.scene.clearance(t.x, t.y)
             after = self.scene.clearance(x, y)

@@ -1,0 +1,14 @@
+"""py_trees leaves of bomc-bt, one module per composed behaviour.
+
+Leaves are thin: they read the robot port and the mission context, call the library in
+``bomc_bt`` and turn its answers into tick statuses and feedback messages. Importing this
+package registers every leaf by name in the default registry the YAML loader uses.
+"""
+
+from behaviours import common, explore, perceive, relocalize, save_map, session, traverse  # noqa: F401
+from bomc_bt.tree.registry import REGISTRY
+
+
+def registry():
+    """The registry with every leaf of this package."""
+    return REGISTRY

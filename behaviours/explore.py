@@ -1,0 +1,180 @@
+"""Explore: Dynamic Window Frontier Exploration as tree leaves.
+
+The loop itself is in ``trees/explore.yaml``: choose a frontier, drive to it, blacklist
+it when it cannot be reached, until the explorer says done, time limit or stuck. The
+decisions are :class:`bomc_bt.exploration.explorer.Explorer`'s; these leaves only ask it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from py_trees.common import Status
+
+from bomc_bt.exploration.explorer import DONE, EXPLORING, TIME_LIMIT, Explorer, still_open
+from bomc_bt.geometry import Pose2D
+from bomc_bt.robot import Status as Nav
+from bomc_bt.site import TrajectoryRecorder
+from bomc_bt.tree.leaf import Leaf
+from bomc_bt.tree.registry import register
+
+
+@dataclass
+class StartExplorationParams:
+    max_consecutive_failures: int = 5
+
+
+@register("StartExploration")
+class StartExploration(Leaf):
+    """Creates the explorer and opens the trajectory file."""
+
+    Params = StartExplorationParams
+
+    def update(self) -> Status:
+        ctx = self.context
+        if ctx.explorer is None:
+            clearance = ctx.config.sim.planner.robot_radius + 0.05
+            ctx.explorer = Explorer(ctx.config.exploration, ctx.now(), ctx.max_time,
+                                    self.params.max_consecutive_failures, clearance)
+        if ctx.trajectory is None:
+            ctx.trajectory = TrajectoryRecorder(ctx.site.trajectory_csv, ctx.config.mission.trajectory_period)
+        self.feedback_message = f"explorer: {ctx.config.exploration.explorer}"
+        return Status.SUCCESS
+
+
+@register("RecordTrajectory")
+class RecordTrajectory(Leaf):
+    """Records the robot's pose at the configured rate while its siblings explore."""
+
+    def update(self) -> Status:
+        ctx = self.context
+        pose = ctx.robot.pose()
+        if pose is not None and ctx.trajectory is not None:
+            ctx.trajectory.record(ctx.now(), pose.x, pose.y, pose.yaw)
+            ctx.progress.path_length = ctx.trajectory.length
+        self.feedback_message = f"{ctx.trajectory.rows if ctx.trajectory else 0} poses"
+        return Status.RUNNING
+
+
+@register("ChooseFrontier")
+class ChooseFrontier(Leaf):
+    """Asks the explorer for the next frontier; fails when exploration is over."""
+
+    writes = ("goal",)
+
+    def update(self) -> Status:
+        ctx = self.context
+        pose = ctx.robot.pose()
+        if pose is None:
+            self.feedback_message = "waiting for a pose"
+            return Status.RUNNING
+        grid = ctx.robot.live_map()
+        ctx.progress.explored_area = grid.free_area()
+        goal = ctx.explorer.next_goal(grid, (pose.x, pose.y), ctx.now())
+        if goal is None:
+            self.feedback_message = f"{ctx.explorer.status}: {ctx.explorer.reason}"
+            return Status.FAILURE
+        self.set("goal", goal)
+        n = len(ctx.explorer.frontiers)
+        self.feedback_message = (
+            f"{goal.window} window: frontier of {goal.frontier.length:.1f} m at "
+            f"({goal.xy[0]:.1f}, {goal.xy[1]:.1f}), {n} frontiers")
+        return Status.SUCCESS
+
+
+@dataclass
+class DriveToFrontierParams:
+    recheck_period: float = 2.0  # s of robot time between checks that the frontier is still open
+    open_radius: float = 0.6  # m around the goal searched for unknown cells
+    min_unknown: int = 6  # fewer unknown cells than this: the frontier is mapped, move on
+
+
+@register("DriveToFrontier")
+class DriveToFrontier(Leaf):
+    """Drives to the chosen frontier; succeeds early once it has been mapped."""
+
+    Params = DriveToFrontierParams
+    reads = ("goal",)
+    writes = ("nav_failure",)
+
+    def initialise(self) -> None:
+        self.goal = self.get("goal")
+        self.handle = self.context.robot.navigate(Pose2D(*self.goal.xy, 0.0))
+        self.next_check = self.context.now() + self.params.recheck_period
+
+    def update(self) -> Status:
+        ctx, explorer = self.context, self.context.explorer
+        now = ctx.now()
+        if explorer.time_up(now):
+            explorer.status, explorer.reason = TIME_LIMIT, f"time limit of {explorer.max_time:.0f} s reached"
+            self.feedback_message = explorer.reason
+            return Status.FAILURE
+        status = self.handle.status()
+        if status is Nav.SUCCEEDED:
+            p = self.params
+            unmapped = still_open(ctx.robot.live_map(), self.goal.xy, p.open_radius, p.min_unknown)
+            explorer.goal_reached(self.goal, unmapped)
+            return Status.SUCCESS
+        if status.done:
+            grid = ctx.robot.live_map()
+            p = self.params
+            if status is Nav.BLOCKED and not still_open(grid, self.goal.xy, p.open_radius, p.min_unknown):
+                # The frontier turned out to be a wall once seen: explored, not a failure.
+                explorer.goal_reached(self.goal, still_open=True)
+                self.feedback_message = "frontier closed by a wall"
+                return Status.SUCCESS
+            self.set("nav_failure", f"{status.value}: {self.handle.message}")
+            self.feedback_message = f"goal {status.value}: {self.handle.message}"
+            return Status.FAILURE
+        if now >= self.next_check:
+            self.next_check = now + self.params.recheck_period
+            grid = ctx.robot.live_map()
+            ctx.progress.explored_area = grid.free_area()
+            if not still_open(grid, self.goal.xy, self.params.open_radius, self.params.min_unknown):
+                explorer.goal_reached()
+                self.feedback_message = "frontier mapped on the way"
+                return Status.SUCCESS
+        pose = ctx.robot.pose()
+        if pose is not None:
+            d = pose.distance_to(Pose2D(*self.goal.xy))
+            self.feedback_message = f"driving to ({self.goal.xy[0]:.1f}, {self.goal.xy[1]:.1f}), {d:.1f} m"
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        handle = getattr(self, "handle", None)
+        if new_status == Status.INVALID and handle is not None and not handle.status().done:
+            handle.cancel()
+
+
+@register("BlacklistGoal")
+class BlacklistGoal(Leaf):
+    """Marks the failed goal unreachable; fails once the explorer is stuck."""
+
+    reads = ("goal", "nav_failure")
+
+    def update(self) -> Status:
+        explorer = self.context.explorer
+        if explorer.status != EXPLORING:
+            self.feedback_message = f"exploration {explorer.status}"
+            return Status.FAILURE
+        goal = self.get("goal")
+        why = self.get("nav_failure") or "unreachable"
+        pose = self.context.robot.pose()
+        explorer.goal_failed(goal, why, (pose.x, pose.y) if pose is not None else None, self.context.now())
+        self.feedback_message = f"blacklisted ({goal.xy[0]:.1f}, {goal.xy[1]:.1f}): {why}"
+        return Status.SUCCESS if explorer.status == EXPLORING else Status.FAILURE
+
+
+@register("ExplorationOutcome")
+class ExplorationOutcome(Leaf):
+    """Succeeds when exploration ended normally (done or time limit), fails when stuck."""
+
+    def update(self) -> Status:
+        ctx = self.context
+        explorer = ctx.explorer
+        if explorer.status == EXPLORING:  # the loop ended without a verdict: out of frontiers
+            explorer.status, explorer.reason = DONE, "no frontiers left"
+        ctx.reason = f"{explorer.status}: {explorer.reason}"
+        self.feedback_message = ctx.reason
+        return Status.FAILURE if explorer.status not in (DONE, TIME_LIMIT) else Status.SUCCESS
+

@@ -1,0 +1,177 @@
+"""Traverse Waypoints: plan the pass, visit each waypoint, detour or skip when blocked.
+
+The control flow (retries, detours, skipping) is in ``trees/traverse.yaml``; the
+waypoint bookkeeping is :class:`bomc_bt.monitoring.TraversalState`, persisted in the site
+store after every waypoint so a killed pass resumes at the next one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from py_trees.common import Status
+
+from bomc_bt.geometry import Pose2D
+from bomc_bt.monitoring import DETOURED, MISSED, VISITED, TraversalState, detour_viewpoints
+from bomc_bt.planner import GridPlanner
+from bomc_bt.robot import Status as Nav
+from bomc_bt.site import write_json
+from bomc_bt.traversal import load_trajectory, plan_traversal, snap_to_free
+from bomc_bt.tree.leaf import Leaf
+from bomc_bt.tree.registry import register
+
+
+def progress_key(ctx) -> str:
+    """Where the pass's waypoint bookkeeping is saved in the store (one key per session)."""
+    return f"traverse/{ctx.session}"
+
+
+@dataclass
+class PlanTraversalParams:
+    clearance: float = 0.45  # m: waypoints closer to a wall are moved into the open
+
+
+@register("PlanTraversal")
+class PlanTraversal(Leaf):
+    """Samples waypoints along the build trajectory and orders them (greedy TSP + 2-opt)."""
+
+    Params = PlanTraversalParams
+
+    def update(self) -> Status:
+        ctx = self.context
+        if ctx.traverse is None:
+            grid = ctx.robot.live_map()
+            trajectory = load_trajectory(ctx.site.trajectory_csv)
+            pose = ctx.robot.pose()
+            planner = GridPlanner(grid, ctx.config.sim.planner)
+            plan = plan_traversal(trajectory, pose, ctx.config.traversal, grid_distance=planner.distance)
+            plan.waypoints = snap_to_free(grid, plan.waypoints, self.params.clearance)
+            write_json(ctx.site.plan_json, plan.to_json())
+            ctx.plan = plan
+            ctx.traverse = TraversalState(plan)
+            saved = ctx.store.get_progress(progress_key(ctx)) if ctx.extras.get("resume") else None
+            if saved:
+                ctx.traverse.restore(saved)
+        ctx.progress.waypoints = len(ctx.traverse.states)
+        ctx.progress.waypoint = ctx.traverse.done_count
+        length = ctx.plan.grid_length or ctx.plan.euclidean_length
+        self.feedback_message = f"{len(ctx.plan.waypoints)} waypoints, {length:.0f} m"
+        return Status.SUCCESS
+
+
+@register("NextWaypoint")
+class NextWaypoint(Leaf):
+    """Writes the next waypoint as the goal; fails when the pass has visited them all."""
+
+    writes = ("goal",)
+
+    def update(self) -> Status:
+        state = self.context.traverse
+        i = state.next()
+        if i is None:
+            self.feedback_message = "all waypoints done"
+            return Status.FAILURE
+        self.set("goal", state.waypoint(i))
+        retry = " (retry)" if i in state.retried else ""
+        self.feedback_message = f"waypoint {i + 1}/{len(state.states)}{retry}"
+        return Status.SUCCESS
+
+
+@dataclass
+class NavigateToParams:
+    timeout: float = 240.0  # s of robot time for one goal
+
+
+@register("NavigateTo")
+class NavigateTo(Leaf):
+    """Drives to the blackboard goal; fails on abort, blockage or timeout (robot clock)."""
+
+    Params = NavigateToParams
+    reads = ("goal",)
+    writes = ("nav_failure",)
+
+    def initialise(self) -> None:
+        self.goal: Pose2D = self.get("goal")
+        self.handle = self.context.robot.navigate(self.goal)
+        self.deadline = self.context.now() + self.params.timeout
+
+    def update(self) -> Status:
+        status = self.handle.status()
+        if status is Nav.SUCCEEDED:
+            self.feedback_message = f"reached ({self.goal.x:.1f}, {self.goal.y:.1f})"
+            return Status.SUCCESS
+        if status.done:
+            self.set("nav_failure", f"{status.value}: {self.handle.message}")
+            self.feedback_message = f"{status.value}: {self.handle.message}"
+            return Status.FAILURE
+        if self.context.now() >= self.deadline:
+            self.handle.cancel()
+            self.set("nav_failure", "timeout")
+            self.feedback_message = f"no arrival within {self.params.timeout:.0f} s"
+            return Status.FAILURE
+        pose = self.context.robot.pose()
+        if pose is not None:
+            self.feedback_message = f"to ({self.goal.x:.1f}, {self.goal.y:.1f}), {pose.distance_to(self.goal):.1f} m"
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        handle = getattr(self, "handle", None)
+        if new_status == Status.INVALID and handle is not None and not handle.status().done:
+            handle.cancel()
+
+
+@dataclass
+class FindDetourParams:
+    radius: float = 2.0  # m around the blocked waypoint
+    count: int = 6  # candidates considered per waypoint
+    clearance: float = 0.45  # m from obstacles
+
+
+@register("FindDetour")
+class FindDetour(Leaf):
+    """Proposes the next untried viewpoint near the current waypoint that still sees it."""
+
+    Params = FindDetourParams
+    writes = ("goal",)
+
+    def update(self) -> Status:
+        ctx = self.context
+        i = ctx.traverse.current
+        tried = ctx.extras.setdefault("detours_tried", {}).setdefault(i, [])
+        target = ctx.traverse.waypoint(i)
+        grid = ctx.robot.live_map()
+        options = detour_viewpoints(grid, (target.x, target.y), self.params.radius, self.params.count,
+                                    self.params.clearance, avoid=[(target.x, target.y), *tried])
+        if not options:
+            self.feedback_message = f"no detour left for waypoint {i + 1}"
+            return Status.FAILURE
+        x, y = options[0]
+        tried.append((x, y))
+        self.set("goal", Pose2D(x, y, target.yaw))
+        self.feedback_message = f"detour for waypoint {i + 1} via ({x:.1f}, {y:.1f})"
+        return Status.SUCCESS
+
+
+@dataclass
+class MarkWaypointParams:
+    state: str = VISITED  # visited | detoured | missed
+
+    def __post_init__(self) -> None:
+        if self.state not in (VISITED, DETOURED, MISSED):
+            raise ValueError(f"state must be visited, detoured or missed, not {self.state!r}")
+
+
+@register("MarkWaypoint")
+class MarkWaypoint(Leaf):
+    """Records how the current waypoint ended and saves the pass's progress."""
+
+    Params = MarkWaypointParams
+
+    def update(self) -> Status:
+        ctx = self.context
+        i = ctx.traverse.current
+        ctx.traverse.mark(i, self.params.state)
+        ctx.store.set_progress(progress_key(ctx), ctx.traverse.to_json())
+        ctx.progress.waypoint = ctx.traverse.done_count
+        self.feedback_message = f"waypoint {i + 1} {self.params.state}"
+        return Status.SUCCESS

@@ -1,0 +1,58 @@
+"""``bomc evaluate``: score the graph saved after session N against the world's truth.
+
+The graph is replayed from the store's history as it stood at the end of session N
+(history is never overwritten), and compared with the ground truth present when that
+pass ended (intra-session changes up to then included), with the association distances
+of the configuration (CONTRACTS.md section 4).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bomc_bt.config import Config
+from bomc_bt.errors import BomcError
+from bomc_bt.evaluation import EvaluationResult, evaluate
+from bomc_bt.graph import ObjectGraph
+from bomc_bt.site import Site
+from bomc_bt.store import SiteStore
+from bomc_bt.world import World, load_world
+
+
+def evaluate_session(world: str | Path | World, site_dir: str | Path, session: int, config: Config) -> EvaluationResult:
+    world = world if isinstance(world, World) else load_world(world)
+    site = Site(Path(site_dir))
+    if not site.store_path.exists():
+        raise BomcError("no object graph here: run `bomc monitor` first", site.store_path)
+    store = SiteStore(site.store_path)
+    try:
+        recorded = {s.number: s for s in store.sessions()}
+        if session not in recorded:
+            known = ", ".join(map(str, sorted(recorded))) or "none"
+            raise BomcError(f"session {session} was not recorded (recorded: {known})", site.store_path, "--session")
+        nodes = store.graph_after(session)
+        ended_at = recorded[session].ended_stamp
+    finally:
+        store.close()
+    # The truth is what stood in the building when the pass ended: a change scheduled
+    # after the robot finished has not happened yet for this session's map.
+    present = world.ground_truth(session, at=ended_at)
+    truth = [(o.category, np.asarray(o.position, dtype=float)) for o in present.values()]
+    thresholds = ObjectGraph(config.association).threshold
+    return evaluate(nodes, truth, thresholds, session)
+
+
+def format_result(result: EvaluationResult) -> str:
+    """A plain-text table of one session's scores."""
+    def f(x):
+        return "-" if x is None else f"{x:.3f}"
+
+    lines = [f"session {result.session}",
+             f"{'class':<16} {'gt':>4} {'map':>4} {'tp':>4} {'fp':>4} {'fn':>4} {'prec':>6} {'rec':>6} {'f1':>6}"]
+    rows = [*sorted(result.classes.items()), ("overall", result.overall)]
+    for name, s in rows:
+        lines.append(f"{name:<16} {s.gt:>4} {s.mapped:>4} {s.tp:>4} {s.fp:>4} {s.fn:>4} "
+                     f"{f(s.precision):>6} {f(s.recall):>6} {f(s.f1):>6}")
+    return "\n".join(lines)

@@ -1,0 +1,205 @@
+"""The monitor pass as plain objects: waypoint bookkeeping, detours, perception, coverage.
+
+The monitor tree's leaves are thin wrappers around these. :class:`TraversalState` knows
+which waypoint is next, which were visited, reached by a detour or missed, and retries
+missed ones once at the end of the pass (the paper's robot lost objects when a bin
+blocked a corridor; ours comes back). :func:`detour_viewpoints` proposes other places
+near a blocked waypoint that still see it. :class:`Perception` runs one RGB-D frame
+through detector, segmenter, back-projection and association (Algorithm 2), writes the
+events to the store, and accumulates the area the camera actually observed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+
+from bomc_bt.geometry import Pose2D
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.perception.frames import Detector, Segmenter
+from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon, visible
+from bomc_bt.robot import RGBDFrame
+from bomc_bt.traversal import TraversalPlan
+
+PENDING, VISITED, DETOURED, MISSED = "pending", "visited", "detoured", "missed"
+
+
+@dataclass
+class TraversalState:
+    """Where the pass is in its plan; JSON-able so a killed pass can resume."""
+
+    plan: TraversalPlan
+    states: list[str] = field(default_factory=list)
+    index: int = 0  # next position in the plan's order
+    retried: list[int] = field(default_factory=list)  # missed waypoints already tried again
+    current: int | None = None
+
+    def __post_init__(self) -> None:
+        if not self.states:
+            self.states = [PENDING] * len(self.plan.waypoints)
+
+    def next(self) -> int | None:
+        """The next waypoint to visit; missed ones come back once after the last."""
+        if self.index < len(self.states):
+            self.current = self.index
+            self.index += 1
+            return self.current
+        for i, state in enumerate(self.states):
+            if state == MISSED and i not in self.retried:
+                self.retried.append(i)
+                self.current = i
+                return i
+        self.current = None
+        return None
+
+    def mark(self, i: int, state: str) -> None:
+        if state == MISSED and self.states[i] in (VISITED, DETOURED):
+            return
+        self.states[i] = state
+
+    def waypoint(self, i: int) -> Pose2D:
+        return self.plan.waypoints[i]
+
+    @property
+    def done_count(self) -> int:
+        return sum(s != PENDING for s in self.states)
+
+    def summary(self) -> dict[str, Any]:
+        counts = {s: self.states.count(s) for s in (VISITED, DETOURED, MISSED, PENDING)}
+        missed = [{"index": i, "x": round(self.waypoint(i).x, 2), "y": round(self.waypoint(i).y, 2)}
+                  for i, s in enumerate(self.states) if s == MISSED]
+        return {"waypoints": len(self.states), **counts, "missed_waypoints": missed}
+
+    def to_json(self) -> dict[str, Any]:
+        return {"states": self.states, "index": self.index, "retried": self.retried}
+
+    def restore(self, data: dict[str, Any]) -> None:
+        if len(data.get("states", [])) == len(self.states):
+            self.states = list(data["states"])
+            self.index = int(data["index"])
+            self.retried = list(data.get("retried", []))
+
+
+def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: float, count: int,
+                      clearance: float, avoid: list[tuple[float, float]] = (),
+                      avoid_radius: float = 0.5) -> list[tuple[float, float]]:
+    """Free places within ``radius`` of a blocked waypoint that still see it.
+
+    Candidates lie on rings around the target; each keeps ``clearance`` from obstacles
+    (so the robot fits there) and has a clear line of sight to the target through known
+    free cells (so the camera sees the same area). Nearest first; places near ``avoid``
+    (detours already tried) are left out.
+    """
+    free = grid.free_mask()
+    dist = cv2.distanceTransform(free.astype(np.uint8), cv2.DIST_L2, 5) * grid.resolution
+    rings = np.linspace(min(0.75, radius), radius, max(2, int(radius / 0.5)))
+    angles = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+    rr, aa = np.meshgrid(rings, angles, indexing="ij")
+    xs = target[0] + (rr * np.cos(aa)).ravel()
+    ys = target[1] + (rr * np.sin(aa)).ravel()
+    rows, cols = grid.world_to_cell(xs, ys)
+    ok = grid.in_bounds(rows, cols)
+    ok[ok] = dist[rows[ok], cols[ok]] >= clearance
+    for ax, ay in avoid:
+        ok &= np.hypot(xs - ax, ys - ay) > avoid_radius
+    picks = [(float(x), float(y)) for x, y in zip(xs[ok], ys[ok], strict=True) if _line_of_sight(grid, free, (x, y), target)]
+    picks.sort(key=lambda p: (math.hypot(p[0] - target[0], p[1] - target[1]), p))
+    return picks[:count]
+
+
+def _line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> bool:
+    n = max(2, int(math.hypot(b[0] - a[0], b[1] - a[1]) / (grid.resolution * 0.5)))
+    t = np.linspace(0.0, 1.0, n)
+    rows, cols = grid.world_to_cell(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
+    inside = grid.in_bounds(rows, cols)
+    return bool(inside.all() and free[rows, cols].all())
+
+
+class Coverage:
+    """The map area the camera actually observed during a pass (issue: coverage accounting)."""
+
+    def __init__(self, grid: OccupancyGrid):
+        self.grid = grid
+        self.free = grid.free_mask()
+        self.seen = np.zeros(grid.data.shape, dtype=np.uint8)
+
+    def add(self, polygon: np.ndarray) -> None:
+        if polygon is None or len(polygon) < 3:
+            return
+        rows, cols = self.grid.world_to_cell(polygon[:, 0], polygon[:, 1])
+        pts = np.stack([cols, rows], axis=1).astype(np.int32)
+        cv2.fillPoly(self.seen, [pts], 1)
+
+    @property
+    def observed_area(self) -> float:
+        return float(np.count_nonzero(self.seen.astype(bool) & self.free)) * self.grid.resolution**2
+
+    @property
+    def fraction(self) -> float:
+        total = np.count_nonzero(self.free)
+        return float(np.count_nonzero(self.seen.astype(bool) & self.free)) / total if total else 0.0
+
+    def unobserved_regions(self, min_area: float = 2.0) -> list[dict[str, float]]:
+        """Connected free regions the camera never saw, largest first."""
+        missing = (self.free & ~self.seen.astype(bool)).astype(np.uint8)
+        n, _, stats, centroids = cv2.connectedComponentsWithStats(missing, connectivity=8)
+        cell = self.grid.resolution**2
+        regions = []
+        for i in range(1, n):
+            area = float(stats[i, cv2.CC_STAT_AREA]) * cell
+            if area >= min_area:
+                x, y = self.grid.cell_to_world(centroids[i, 1], centroids[i, 0])
+                regions.append({"x": round(float(x), 2), "y": round(float(y), 2), "area_m2": round(area, 2)})
+        return sorted(regions, key=lambda r: -r["area_m2"])
+
+
+@dataclass
+class FrameResult:
+    detections: int
+    observations: int
+    expected: int
+    events: list
+
+
+class Perception:
+    """One RGB-D frame through the whole Perceive-Associate pipeline."""
+
+    def __init__(self, detector: Detector, segmenter: Segmenter | None, categories: list[str],
+                 params: ProjectionParams, graph, store, session: int, grid: OccupancyGrid,
+                 occlusion_check: bool = True):
+        self.detector = detector
+        self.segmenter = segmenter
+        self.categories = categories
+        self.params = params
+        self.graph = graph
+        self.store = store
+        self.session = session
+        self.coverage = Coverage(grid)
+        self.occlusion_check = occlusion_check
+        self.frames = 0
+        self.skipped = 0
+        self.events: list = []
+
+    def process(self, frame: RGBDFrame) -> FrameResult:
+        detections = self.detector.detect(frame, self.categories)
+        if self.segmenter is not None and detections:
+            detections = self.segmenter.segment(frame, detections)
+        observations = detections_to_observations(frame, detections, self.params)
+        polygon = fov_polygon(frame, self.params)
+        self.coverage.add(polygon)
+        candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
+        expected = candidates
+        if candidates and self.occlusion_check:
+            positions = np.array([n.position for n in candidates], dtype=float)
+            expected = [n for n, v in zip(candidates, visible(frame, positions), strict=True) if v]
+        events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp)
+        changed = self.graph.drain_changed()
+        if self.store is not None and (events or changed):
+            self.store.record(events, changed)
+        self.frames += 1
+        self.events.extend(events)
+        return FrameResult(len(detections), len(observations), len(expected), events)

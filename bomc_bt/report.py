@@ -1,0 +1,79 @@
+"""Session reports: what one monitor pass did, in JSON, Markdown and a PNG of the map."""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import Any
+
+from bomc_bt.render import render_semantic_map, save_png
+from bomc_bt.site import write_json
+
+
+def session_summary(ctx) -> dict[str, Any]:
+    """Counts, coverage, missed waypoints and timing of the pass in ``ctx``."""
+    events = Counter(e.kind for e in (ctx.perception.events if ctx.perception else []))
+    coverage = ctx.perception.coverage if ctx.perception else None
+    by_category = Counter(n.category for n in ctx.graph.nodes.values())
+    return {
+        "session": ctx.session,
+        "outcome": ctx.outcome,
+        "reason": ctx.reason,
+        "sim_time_s": round(ctx.now(), 1),
+        "path_length_m": round(getattr(ctx.robot, "distance_travelled", 0.0), 1),
+        "frames": ctx.perception.frames if ctx.perception else 0,
+        "nodes": len(ctx.graph.nodes),
+        "nodes_by_category": dict(sorted(by_category.items())),
+        "events": {k: events.get(k, 0) for k in ("added", "removed", "moved", "updated")},
+        "coverage": {
+            "observed_m2": round(coverage.observed_area, 1) if coverage else 0.0,
+            "fraction": round(coverage.fraction, 3) if coverage else 0.0,
+            "unobserved_regions": coverage.unobserved_regions() if coverage else [],
+        },
+        "traversal": ctx.traverse.summary() if ctx.traverse else {},
+        "localized": ctx.extras.get("localized", "no"),
+    }
+
+
+def write_session_report(ctx, close: bool = True) -> dict[str, Any]:
+    """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store."""
+    summary = session_summary(ctx)
+    if close:
+        ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()})
+    out = ctx.site.session_dir(ctx.session)
+    write_json(out / "report.json", summary)
+    (out / "report.md").write_text(report_markdown(summary))
+    removed = [e for e in (ctx.perception.events if ctx.perception else []) if e.kind == "removed"]
+    waypoints = ctx.plan.waypoints if ctx.plan else []
+    img = render_semantic_map(ctx.robot.live_map(), ctx.graph.nodes.values(), [_Pos(e) for e in removed],
+                              waypoints=waypoints, title=f"session {ctx.session}")
+    save_png(img, out / "semantic_map.png")
+    return summary
+
+
+class _Pos:
+    def __init__(self, event):
+        self.position = event.position
+
+
+def report_markdown(s: dict[str, Any]) -> str:
+    t = s["traversal"]
+    lines = [
+        f"# Session {s['session']}: {s['outcome']}",
+        "",
+        f"- sim time: {s['sim_time_s']} s, path: {s['path_length_m']} m, frames: {s['frames']}",
+        f"- nodes: {s['nodes']} ({', '.join(f'{k} {v}' for k, v in s['nodes_by_category'].items()) or 'none'})",
+        f"- events: {', '.join(f'{k} {v}' for k, v in s['events'].items())}",
+        f"- coverage: {s['coverage']['observed_m2']} m² observed ({s['coverage']['fraction']:.0%} of free space)",
+    ]
+    if t:
+        lines.append(f"- waypoints: {t['waypoints']} (visited {t['visited']}, detoured {t['detoured']}, "
+                     f"missed {t['missed']}, not reached {t['pending']})")
+        for m in t["missed_waypoints"]:
+            lines.append(f"  - missed waypoint {m['index'] + 1} at ({m['x']}, {m['y']})")
+    regions = s["coverage"]["unobserved_regions"]
+    if regions:
+        lines.append("- largest unobserved regions:")
+        lines += [f"  - ({r['x']}, {r['y']}): {r['area_m2']} m²" for r in regions[:10]]
+    if s.get("reason"):
+        lines.append(f"- reason: {s['reason']}")
+    return "\n".join(lines) + "\n"

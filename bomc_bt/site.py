@@ -1,0 +1,145 @@
+"""The site directory: everything a build and the monitor passes leave behind.
+
+Layout (CONTRACTS.md section 3 fixes the first three entries)::
+
+    map.yaml, map.pgm        the occupancy map (map_server format)
+    trajectory.csv           exploration poses t,x,y,yaw
+    build.json               the build summary (area, path length, sim time, reason)
+    site.db                  object graph, events and sessions (bomc_bt.store)
+    plan.json                the traversal plan of the last monitor pass
+    sessions/<n>/            per-session report (JSON + Markdown) and semantic map PNG
+
+Files are written so that a crash loses nothing already observed: the trajectory is an
+append-only CSV flushed row by row, JSON files are replaced atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+from bomc_bt.errors import BomcError
+
+
+@dataclass(frozen=True)
+class Site:
+    """Paths inside one site directory."""
+
+    root: Path
+
+    @property
+    def map_yaml(self) -> Path:
+        return self.root / "map.yaml"
+
+    @property
+    def trajectory_csv(self) -> Path:
+        return self.root / "trajectory.csv"
+
+    @property
+    def build_json(self) -> Path:
+        return self.root / "build.json"
+
+    @property
+    def store_path(self) -> Path:
+        return self.root / "site.db"
+
+    @property
+    def plan_json(self) -> Path:
+        return self.root / "plan.json"
+
+    def session_dir(self, number: int) -> Path:
+        return self.root / "sessions" / str(number)
+
+    def create(self) -> Site:
+        try:
+            self.root.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise BomcError(f"cannot create the site directory ({exc.strerror})", self.root) from None
+        return self
+
+    def require_build(self) -> None:
+        """A monitor pass needs the map and the trajectory of a build."""
+        for path in (self.map_yaml, self.trajectory_csv):
+            if not path.exists():
+                raise BomcError("missing: run `bomc build` for this site first", path)
+
+
+def write_json(path: Path, payload: Any) -> None:
+    """Replace ``path`` atomically with ``payload`` as indented JSON."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(payload, f, indent=2, sort_keys=False, default=_jsonable)
+            f.write("\n")
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise BomcError("not found", path) from None
+    except (OSError, ValueError) as exc:
+        raise BomcError(f"unreadable JSON ({exc})", path) from None
+
+
+def _jsonable(value: Any) -> Any:
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+class TrajectoryRecorder:
+    """Appends exploration poses to ``trajectory.csv`` at a fixed rate of robot time.
+
+    Each row is flushed as it is written, so a killed build keeps every pose recorded so
+    far; a resumed build appends to the existing file.
+    """
+
+    HEADER = "t,x,y,yaw\n"
+
+    def __init__(self, path: Path, period: float, append: bool = False):
+        self.path = path
+        self.period = period
+        self._last_t = -math.inf
+        self._last_xy: tuple[float, float] | None = None
+        self.length = 0.0
+        self.rows = 0
+        exists = append and path.exists() and path.stat().st_size > 0
+        self._file: TextIO = open(path, "a" if exists else "w")  # noqa: SIM115 - kept open for the run
+        if not exists:
+            self._file.write(self.HEADER)
+            self._file.flush()
+
+    def record(self, t: float, x: float, y: float, yaw: float, force: bool = False) -> bool:
+        if self._last_xy is not None:
+            self.length += math.hypot(x - self._last_xy[0], y - self._last_xy[1])
+        self._last_xy = (x, y)
+        if not force and t - self._last_t < self.period - 1e-9:
+            return False
+        self._last_t = t
+        self._file.write(f"{t:.3f},{x:.4f},{y:.4f},{yaw:.4f}\n")
+        self._file.flush()
+        self.rows += 1
+        return True
+
+    def close(self) -> None:
+        if not self._file.closed:
+            os.fsync(self._file.fileno())
+            self._file.close()

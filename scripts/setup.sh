@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Sets up bomc-bt in ./.venv: Python >= 3.10 venv, the package (editable) and its test tools.
+# Safe to run again: it only installs what is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PY=${PYTHON:-python3}
+if ! "$PY" -c 'import sys; sys.exit(sys.version_info < (3, 10))' 2>/dev/null; then
+  echo "setup: bomc-bt needs Python >= 3.10 (py_trees 2.x); set PYTHON=/path/to/python3.11" >&2
+  exit 2
+fi
+
+apt_install() {  # best effort: only where we are root and apt exists
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -q "$@" >/dev/null 2>&1 \
+      || { apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q "$@" >/dev/null 2>&1; } \
+      || return 1
+  else
+    return 1
+  fi
+}
+
+if [ ! -x .venv/bin/python ]; then
+  if ! "$PY" -m venv .venv 2>/dev/null; then
+    rm -rf .venv
+    apt_install python3-venv || { echo "setup: cannot create a venv (install python3-venv)" >&2; exit 2; }
+    "$PY" -m venv .venv
+  fi
+fi
+
+stamp=.venv/.bomc-installed
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+  .venv/bin/python -m pip install -q --upgrade pip >/dev/null
+  .venv/bin/python -m pip install -q -e ".[test]"
+  touch "$stamp"
+fi
+echo "setup: ready (.venv/bin/bomc)"
