@@ -2,6 +2,10 @@
 
 Exit codes: 0 success, 1 the mission ran and failed (or was interrupted), 2 bad input
 with a one-line message and no traceback.
+
+``--ros`` runs ``build`` / ``monitor`` against a ROS 1 robot (:mod:`bomc_bt.ros`): there
+is no world then, the robot is the world. ``bomc sim-ros`` serves the built-in simulator
+through ROS, so the two together try the ROS path without a robot.
 """
 
 from __future__ import annotations
@@ -11,7 +15,7 @@ import json
 import sys
 from pathlib import Path
 
-from bomc_bt.errors import BomcError
+from bomc_bt.errors import BomcError, MissionFailed
 
 
 class _Parser(argparse.ArgumentParser):
@@ -26,13 +30,15 @@ def parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     def common(sp, world_required: bool = True) -> None:
-        sp.add_argument("--world", required=world_required, help="simulation world file (YAML, CONTRACTS 1)")
+        sp.add_argument("--world", required=world_required,
+                        help="simulation world file (YAML, CONTRACTS 1)" + ("" if world_required else
+                                                                             "; not with --ros"))
         sp.add_argument("--site", required=True, help="site directory (CONTRACTS 3)")
         sp.add_argument("--config", action="append", default=[], metavar="FILE",
                         help="extra config file layered over config/defaults.yaml (repeatable)")
 
     b = sub.add_parser("build", help="explore once and save the map")
-    common(b)
+    common(b, world_required=False)
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--max-time", type=float, default=None, help="simulated seconds (default: until done)")
     b.add_argument("--explorer", choices=["dwfe", "baseline"], default=None)
@@ -43,7 +49,7 @@ def parser() -> argparse.ArgumentParser:
     b.add_argument("--ros", action="store_true", help="run against a ROS 1 robot instead of the simulator")
 
     m = sub.add_parser("monitor", help="one monitoring pass that updates the object graph")
-    common(m)
+    common(m, world_required=False)
     m.add_argument("--session", type=int, required=True)
     m.add_argument("--seed", type=int, default=0)
     m.add_argument("--tree", default=None, help="tree file (default trees/monitor.yaml)")
@@ -51,7 +57,7 @@ def parser() -> argparse.ArgumentParser:
     m.add_argument("--viewer", action="store_true")
     m.add_argument("--viewer-port", type=int, default=8765)
     m.add_argument("--quiet", action="store_true")
-    m.add_argument("--ros", action="store_true")
+    m.add_argument("--ros", action="store_true", help="run against a ROS 1 robot instead of the simulator")
 
     e = sub.add_parser("evaluate", help="score the graph after a session against the world's ground truth")
     common(e)
@@ -66,21 +72,50 @@ def parser() -> argparse.ArgumentParser:
     d.add_argument("--config", action="append", default=[], metavar="FILE")
     d.add_argument("--quiet", action="store_true")
 
+    v = sub.add_parser("view", help="browse a finished site in the web viewer")
+    v.add_argument("site", help="site directory")
+    v.add_argument("--port", type=int, default=8765)
+    v.add_argument("--no-browser", action="store_true", help="only print the address")
+
     c = sub.add_parser("config", help="print the effective configuration")
     c.add_argument("--config", action="append", default=[], metavar="FILE")
+    c.add_argument("--defaults", action="store_true", help="the code's defaults (config/defaults.yaml)")
+
+    # Parsed by the bridge itself (main() hands it the rest of the line); listed for --help.
+    sub.add_parser("sim-ros", add_help=False,
+                   help="serve the simulator over ROS 1 for --ros (bomc sim-ros --help for its options)")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] == "sim-ros":
+        from bomc_bt.ros.bridge import main as sim_ros
+
+        return sim_ros(argv[1:])
+    p = parser()
+    args = p.parse_args(argv)
+    if args.command in ("build", "monitor"):
+        if args.ros and args.world:
+            p.error("--world is for the simulator: with --ros the robot is the world "
+                    "(give the world to `bomc sim-ros --world` instead)")
+        if not args.ros and not args.world:
+            p.error("the following arguments are required: --world (or --ros for a ROS 1 robot)")
     try:
         return _dispatch(args)
     except BomcError as exc:
         print(f"bomc: error: {exc}", file=sys.stderr)
         return 2
+    except MissionFailed as exc:  # the robot could not go on (ROS: no camera_info, a dead /clock, ...)
+        print(f"bomc: mission failed: {_one_line(exc)}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("bomc: interrupted", file=sys.stderr)
         return 1
+
+
+def _one_line(exc: Exception) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 def _dispatch(args) -> int:
@@ -89,26 +124,36 @@ def _dispatch(args) -> int:
     if args.command == "config":
         import yaml
 
-        from bomc_bt.config import config_to_dict
+        from bomc_bt.config import config_to_dict, defaults_yaml
 
+        if args.defaults:
+            print(defaults_yaml(), end="")
+            return 0
         print(yaml.safe_dump(config_to_dict(run.build_config(args.config)), sort_keys=False), end="")
         return 0
     if getattr(args, "ros", False):
-        raise BomcError("the ROS 1 backend is not available in this version", None, "--ros")
-    if getattr(args, "viewer", False):
-        raise BomcError("the live web viewer is not available in this version (the terminal view is)",
-                        None, "--viewer")
+        return _dispatch_ros(args)
+    if args.command == "view":
+        return _view(args)
     config = run.build_config(args.config)
+    hooks, server = _live_viewer(args)
     if args.command == "build":
-        result = run.run_build(args.world, args.site, seed=args.seed, max_time=args.max_time,
-                               explorer=args.explorer, tree=args.tree, config=config, quiet=args.quiet)
+        try:
+            result = run.run_build(args.world, args.site, seed=args.seed, max_time=args.max_time,
+                                   explorer=args.explorer, tree=args.tree, config=config, quiet=args.quiet,
+                                   context_hooks=hooks)
+        finally:
+            _close(server)
         s = result.summary
         print(f"build {s['outcome']}: {s['termination']} ({s['reason']}); explored {s['explored_area_m2']} m², "
               f"path {s['path_length_m']} m, {s['sim_time_s']} s simulated; map in {Path(args.site) / 'map.yaml'}")
         return 0 if result.succeeded else 1
     if args.command == "monitor":
-        result = run.run_monitor(args.world, args.site, args.session, seed=args.seed, tree=args.tree,
-                                 config=config, resume=args.resume, quiet=args.quiet)
+        try:
+            result = run.run_monitor(args.world, args.site, args.session, seed=args.seed, tree=args.tree,
+                                     config=config, resume=args.resume, quiet=args.quiet, context_hooks=hooks)
+        finally:
+            _close(server)
         s = result.summary
         print(f"session {args.session} {s['outcome']}: {s['nodes']} nodes, events {s['events']}, "
               f"coverage {s['coverage']['fraction']:.0%}, waypoints missed {s['traversal'].get('missed', 0)}, "
@@ -127,6 +172,71 @@ def _dispatch(args) -> int:
         return run_demo(args.world, args.site, seed=args.seed, sessions=args.sessions, config=config,
                         quiet=args.quiet)
     raise BomcError(f"unknown command {args.command!r}")
+
+
+def _dispatch_ros(args) -> int:
+    """``build --ros`` / ``monitor --ros``: the same trees and summaries, a ROS 1 robot."""
+    from bomc_bt import run
+    from bomc_bt.ros.missions import run_build_ros, run_monitor_ros
+
+    config = run.build_config(args.config, robot="fetch")
+    hooks, server = _live_viewer(args)
+    if args.command == "build":
+        try:
+            result = run_build_ros(args.site, config, max_time=args.max_time, explorer=args.explorer,
+                                   tree=args.tree, quiet=args.quiet, context_hooks=hooks)
+        finally:
+            _close(server)
+        s = result.summary
+        print(f"build {s['outcome']}: {s['termination']} ({s['reason']}); explored {s['explored_area_m2']} m², "
+              f"path {s['path_length_m']} m, {s['sim_time_s']} s; map in {Path(args.site) / 'map.yaml'}")
+        return 0 if result.succeeded else 1
+    try:
+        result = run_monitor_ros(args.site, args.session, config, seed=args.seed, tree=args.tree,
+                                 resume=args.resume, quiet=args.quiet, context_hooks=hooks)
+    finally:
+        _close(server)
+    s = result.summary
+    print(f"session {args.session} {s['outcome']}: {s['nodes']} nodes, events {s['events']}, "
+          f"coverage {s['coverage']['fraction']:.0%}, waypoints missed {s['traversal'].get('missed', 0)}, "
+          f"{s['sim_time_s']} s")
+    return 0 if result.succeeded else 1
+
+
+def _live_viewer(args):
+    """With --viewer: serve the live page and return the hook factory that feeds it."""
+    if not getattr(args, "viewer", False):
+        return [], None
+    from bomc_bt.viewer import serve_live
+
+    server, factory = serve_live(args.viewer_port)
+    print(f"viewer: {server.url}", file=sys.stderr)
+    return [factory], server
+
+
+def _close(server) -> None:
+    if server is not None:
+        server.close()
+
+
+def _view(args) -> int:
+    """``bomc view SITE``: serve the finished site until Ctrl-C."""
+    import time
+    import webbrowser
+
+    from bomc_bt.viewer import serve_site
+
+    server = serve_site(args.site, args.port)
+    print(f"viewer: {server.url} (Ctrl-C to stop)")
+    if not args.no_browser:
+        webbrowser.open(server.url)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        server.close()
 
 
 if __name__ == "__main__":

@@ -96,6 +96,7 @@ class Observation:
     position: np.ndarray
     confidence: float
     n_points: int = 0
+    extent: float = 0.0  # horizontal spread (m) of the object's points about the centroid
 
     def __post_init__(self) -> None:
         self.position = np.asarray(self.position, dtype=float).reshape(3)
@@ -128,6 +129,9 @@ class AssociationParams:
     position_smoothing: float = 0.3  # robust: running-average weight of a new observation
     report_distance: float = 0.1  # robust: drift (m) that makes a refresh an "updated" event
     vertical_weight: float = 0.5  # robust: weight of height differences in distances (paper: 1)
+    extent_gate: float = 2.0  # robust: a big object's own spread widens its gate, up to this times delta
+    confirm_detections: int = 2  # robust: frames (confirm_interval apart) that must see a new object
+    tentative_ttl: float = 10.0  # robust: s a first sighting waits for its confirmation
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -141,6 +145,10 @@ class AssociationParams:
             raise ValueError("confirm_misses must be >= 1")
         if self.confirm_interval < 0 or self.move_radius < 0 or self.report_distance < 0:
             raise ValueError("confirm_interval, move_radius and report_distance must be >= 0")
+        if self.confirm_detections < 1 or self.tentative_ttl < 0:
+            raise ValueError("confirm_detections must be >= 1 and tentative_ttl >= 0")
+        if self.extent_gate < 1.0:
+            raise ValueError("extent_gate must be >= 1 (1 turns it off)")
         if not 0.0 <= self.vertical_weight <= 1.0:
             raise ValueError("vertical_weight must be in [0, 1]")
         if not 0.0 < self.position_smoothing <= 1.0:
@@ -191,6 +199,8 @@ class ObjectGraph:
         self._pending: set[int] = set()  # robust: present nodes with misses > 0
         self._last_miss: dict[int, tuple[int, float]] = {}  # id -> (session, stamp) of last counted miss
         self._removed_now: dict[int, Node] = {}  # removed in the current session (move candidates)
+        # robust: first sightings awaiting confirmation: (category, position, count, last, first stamp)
+        self._tentative: list[tuple[str, np.ndarray, int, float, float]] = []
         self._session: int | None = None
         self._changed: dict[int, Node] = {}
         self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
@@ -267,14 +277,21 @@ class ObjectGraph:
 
     # -------------------------------------------------------------- association
     def associate(
-        self, observations: list[Observation], expected: list[int], session: int, stamp: float
+        self, observations: list[Observation], expected: list[int], session: int, stamp: float,
+        in_view: list[int] | None = None,
     ) -> list[Event]:
-        """Update the graph with one frame (Algorithm 2); returns the events in order."""
+        """Update the graph with one frame (Algorithm 2); returns the events in order.
+
+        ``expected``: nodes in the field of view that the frame can confirm or deny.
+        ``in_view`` (robust mode): all nodes inside the field-of-view polygon, hidden ones
+        included; only these may be folded into an observed node as hidden duplicates.
+        Nodes in neither list are never touched.
+        """
         self._begin(session)
         exp = [i for i in dict.fromkeys(expected) if i in self.nodes]
         if self.params.mode == "paper":
             return self._associate_paper(observations, exp, session, stamp)
-        return self._associate_robust(observations, exp, session, stamp)
+        return self._associate_robust(observations, exp, session, stamp, set(in_view or ()))
 
     def _associate_paper(
         self, obs: Sequence[Observation], expected: list[int], session: int, stamp: float
@@ -299,7 +316,7 @@ class ObjectGraph:
         return events
 
     def _associate_robust(
-        self, obs: Sequence[Observation], expected: list[int], session: int, stamp: float
+        self, obs: Sequence[Observation], expected: list[int], session: int, stamp: float, in_view: set[int]
     ) -> list[Event]:
         events: list[Event] = []
         near = self._within_many(obs)  # one vectorised pass, graph as it stood at the frame's start
@@ -327,8 +344,49 @@ class ObjectGraph:
             if j in matched_obs or len(near[j][0]) or self._near_any(o, placed):
                 continue  # matched, or absorbed: a closer observation already matched that node
             moved = self._move_candidate(o)
+            if moved is None and not self._confirmed(o, stamp):
+                continue
             events.append(self._move(moved, o, session, stamp) if moved else self._add(o, session, stamp))
             placed.append(self.nodes[events[-1].node_id])
+        hidden = in_view - set(expected)
+        events.extend(self._merge_hidden_duplicates(pairs, matched_nodes, hidden, obs, session, stamp))
+        return events
+
+    def _merge_hidden_duplicates(self, pairs: list[tuple[float, int, int]], matched: set[int], hidden: set[int],
+                                 obs: Sequence[Observation], session: int, stamp: float) -> list[Event]:
+        """Fold into the matched node any same-category node that the same observation also
+        covers but that could not be checked: unmatched and not expected.
+
+        Two views of a big object from opposite sides can leave two nodes a little over
+        delta_c apart; as their running averages converge, the second ends up *inside* the
+        object, where the depth image hides it, so it is never expected and never missed.
+        An observation that covers both settles it: the node seen more often keeps its id
+        (position averaged by observations), the other is removed. A node that was
+        expected but unmatched is not touched: it may be a second object, and the miss
+        count decides.
+        """
+        events: list[Event] = []
+        best: dict[int, int] = {}
+        for _, vid, j in pairs:  # sorted by distance: the observation each matched node got
+            if vid in matched and j not in best.values() and vid not in best:
+                best[vid] = j
+        for vid, j in best.items():
+            for other, _ in self.within(obs[j].category, obs[j].position, self.gate(obs[j])):
+                v = self.nodes.get(vid)
+                if v is None or other.id == vid or other.id in matched or other.id not in hidden:
+                    continue
+                if other.id not in self.nodes:
+                    continue
+                keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
+                total = max(keep.observations + drop.observations, 1)
+                self._relocate(keep, (keep.position * keep.observations + drop.position * drop.observations) / total)
+                keep.observations += drop.observations
+                keep.confidence = max(keep.confidence, drop.confidence)
+                self._changed[keep.id] = keep
+                events.append(self._remove(drop, session, stamp))
+                del self._removed_now[drop.id]  # merged, not gone: never "moved" back
+                events.append(self._event("updated", keep, session, stamp))
+                matched.add(keep.id)
         return events
 
     def _expected_hits(self, obs: Sequence[Observation], expected: list[int]) -> np.ndarray:
@@ -344,8 +402,21 @@ class ObjectGraph:
         d2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2]
         return (vcode[:, None] == ocode[None, :]) & (d2 <= (delta * delta)[:, None])
 
-    def _near_any(self, o: Observation, nodes: list[Node]) -> bool:
+    def gate(self, o: Observation) -> float:
+        """How far a node may be from ``o`` and still be the same object.
+
+        delta_c in the paper. In robust mode a large object widens it to the spread of its
+        own points (capped at ``extent_gate`` * delta_c): seen from another side, a table's
+        visible-surface centroid moves by up to half its length, and without this the
+        same table becomes two nodes. Small objects keep delta_c.
+        """
         delta = self.threshold(o.category)
+        if self.params.mode != "robust":
+            return delta
+        return max(delta, min(1.5 * o.extent, self.params.extent_gate * delta))
+
+    def _near_any(self, o: Observation, nodes: list[Node]) -> bool:
+        delta = self.gate(o)
         return any(
             v.category == o.category
             and _dist2_scalar(v.position * self._scale, o.position * self._scale) <= delta * delta
@@ -412,9 +483,39 @@ class ObjectGraph:
         return self._event("moved", v, session, stamp, previous)
 
     # --------------------------------------------------------- shared mutations
+    def _confirmed(self, o: Observation, stamp: float) -> bool:
+        """Confirm before adding: a new object must be seen in ``confirm_detections`` frames.
+
+        A false positive (a shadow taken for a door, a box for a bin) rarely repeats at the
+        same place in the next frames, a real object does. First sightings wait here, off
+        the graph, for ``tentative_ttl`` seconds; the observation that confirms one becomes
+        the node (at the mean of the sightings).
+        """
+        need = self.params.confirm_detections
+        if need <= 1:
+            return True
+        ttl, gate = self.params.tentative_ttl, self.gate(o)
+        self._tentative = [t for t in self._tentative if stamp - t[3] <= ttl]
+        for k, (cat, pos, count, last, first) in enumerate(self._tentative):
+            if cat != o.category or np.linalg.norm((pos - o.position) * self._scale) > gate:
+                continue
+            if stamp - last < self.params.confirm_interval:
+                return False  # the same burst of frames: not independent evidence
+            count += 1
+            mean = (pos * (count - 1) + o.position) / count
+            if count >= need:
+                del self._tentative[k]
+                o.position = mean
+                return True
+            self._tentative[k] = (cat, mean, count, stamp, first)
+            return False
+        self._tentative.append((o.category, o.position.copy(), 1, stamp, stamp))
+        return False
+
     def _begin(self, session: int) -> None:
         if session != self._session:
             self._removed_now.clear()
+            self._tentative = []
             self._session = session
 
     def _touch(self, v: Node, session: int) -> None:
@@ -516,7 +617,7 @@ class ObjectGraph:
         counts: list[int] = []
         gathered: list[np.ndarray] = []
         for o in queries:
-            slots = self._cat_candidates(o.category, o.position, self.threshold(o.category))
+            slots = self._cat_candidates(o.category, o.position, self.gate(o))
             counts.append(len(slots))
             gathered.append(slots)
         if not queries or sum(counts) == 0:
@@ -524,7 +625,7 @@ class ObjectGraph:
         slots = np.concatenate(gathered)
         owner = np.repeat(np.arange(len(queries)), counts)
         qpos = np.array([o.position for o in queries]) * self._scale
-        radius = np.array([self.threshold(o.category) for o in queries])
+        radius = np.array([self.gate(o) for o in queries])
         d = self._pos[slots] - qpos[owner]
         d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
         keep = d2 <= (radius * radius)[owner]

@@ -195,8 +195,12 @@ class Perception:
         expected = candidates
         if candidates and self.occlusion_check:
             positions = np.array([n.position for n in candidates], dtype=float)
-            expected = [n for n, v in zip(candidates, visible(frame, positions), strict=True) if v]
-        events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp)
+            camera = frame.T_map_camera[:3, 3]
+            near = np.hypot(positions[:, 0] - camera[0], positions[:, 1] - camera[1]) <= self.params.expect_range
+            seen = visible(frame, positions) & near
+            expected = [n for n, v in zip(candidates, seen, strict=True) if v]
+        events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
+                                      in_view=[n.id for n in candidates])
         changed = self.graph.drain_changed()
         if self.store is not None and (events or changed):
             self.store.record(events, changed)

@@ -18,7 +18,9 @@ from bomc_bt.graph import (
 from bomc_bt.store import SiteStore
 
 PAPER = AssociationParams(mode="paper")
-ROBUST = AssociationParams(mode="robust", confirm_misses=3, confirm_interval=0.5, move_radius=3.0)
+# confirm_detections=1: these tests are about matching, misses and moves, not about confirming
+# new objects (tests/test_graph_extensions.py covers that).
+ROBUST = AssociationParams(mode="robust", confirm_misses=3, confirm_interval=0.5, move_radius=3.0, confirm_detections=1)
 
 
 def node(i: int, cat: str, x: float, y: float, z: float = 0.5, session: int = 1) -> Node:

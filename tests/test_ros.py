@@ -3,11 +3,13 @@
 A module-wide ``roscore -p PORT`` on 127.0.0.1 (a free port); each test starts the bridge
 (``python -m bomc_bt.ros.bridge``) in a subprocess and drives a :class:`RosRobot` from
 this process (rospy allows one node per process, so the executive node lives for the
-whole module). Skipped, with the reason, only where ROS cannot be imported.
+whole module). Tests that need ROS skip, with the reason, where it cannot be imported;
+the command-line checks that need no robot run everywhere.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import socket
@@ -15,12 +17,22 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
+from bomc_bt.cli import main as bomc
 from bomc_bt.errors import BomcError, MissionFailed
+from bomc_bt.evaluate_site import evaluate_session
+from bomc_bt.exploration.coverage import map_coverage
 from bomc_bt.geometry import Pose2D
+from bomc_bt.grid import load_map
 from bomc_bt.robot import Status
+from bomc_bt.ros.missions import run_build_ros, run_monitor_ros
+from bomc_bt.ros.params import RosParams
+from bomc_bt.ros.robot import RosRobot
+from bomc_bt.run import build_config, run_build, run_monitor, world_categories
+from bomc_bt.world import load_world
 
 pytestmark = pytest.mark.ros
 
@@ -33,19 +45,13 @@ except BomcError as exc:
     ROS_MISSING = str(exc)
 if not ROS_MISSING and shutil.which("roscore") is None:
     ROS_MISSING = "roscore is not on PATH (apt-get install ros-core)"
-if ROS_MISSING:
-    pytest.skip(f"ROS 1 unavailable: {ROS_MISSING}", allow_module_level=True)
-
-from bomc_bt.ros.params import RosParams  # noqa: E402
-from bomc_bt.ros.robot import RosRobot  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
-WORLD = Path("/work/shared/worlds/lab-b.yaml")
-if not WORLD.exists():
-    WORLD = ROOT / "examples" / "worlds" / "lab-b.yaml"
+WORLD = Path(__file__).resolve().parents[2] / "shared" / "worlds" / "lab-b.yaml"
 SIM_PARAMS = dict(
     instances_topic="/bomc_sim/instances", frame_timeout=2.0, clock_timeout=5.0, server_timeout=10.0
 )
+BUILD_FILES = ("map.yaml", "map.pgm", "trajectory.csv", "build.json")  # what a monitor pass needs
 
 
 def _free_port() -> int:
@@ -56,6 +62,8 @@ def _free_port() -> int:
 
 @pytest.fixture(scope="module")
 def roscore():
+    if ROS_MISSING:
+        pytest.skip(f"ROS 1 unavailable: {ROS_MISSING}")
     port = _free_port()
     env = dict(
         os.environ,
@@ -260,3 +268,180 @@ def test_no_move_base_server_is_a_clear_error(roscore):
             ),
             mode="build",
         )
+
+
+# -- whole missions through ROS vs. the direct simulator run ---------------------------------
+def _config(**ros) -> object:
+    """The simulator's config with the test's ROS timeouts and the world's categories as prompts."""
+    config = build_config()
+    config.ros = RosParams(**{**SIM_PARAMS, **ros})
+    config.perception.categories = world_categories(load_world(WORLD))
+    return config
+
+
+def _copy_build(src: Path, dst: Path) -> Path:
+    """A fresh site holding only ``src``'s build (no object graph yet)."""
+    dst.mkdir(parents=True)
+    for name in BUILD_FILES:
+        shutil.copy(src / name, dst / name)
+    return dst
+
+
+def _coverage(site: Path) -> float:
+    world = load_world(WORLD)
+    return map_coverage(load_map(site / "map.yaml"), world.grid, world.walls(), world.start).fraction
+
+
+def _f1(site: Path) -> float:
+    return evaluate_session(WORLD, site, 1, build_config()).overall.f1
+
+
+def _monitor_ros(env: dict, site: Path, *bridge_args: str, hooks=()):
+    bridge = Bridge(env, "--mode", "monitor", "--session", "1", "--map", str(site / "map.yaml"), *bridge_args)
+    try:
+        return run_monitor_ros(site, 1, _config(), hooks=list(hooks))
+    finally:
+        bridge.stop()
+
+
+@pytest.fixture(scope="module")
+def lab_b(roscore, tmp_path_factory):
+    """lab-b built directly and through ROS, plus the direct monitor F1 on the ROS-built map.
+
+    The monitor reference runs on the ROS-built map because F1 depends on where the
+    waypoints fall, i.e. on the map: two builds that differ by a few cells can move F1 by
+    more than ROS does, and the comparison is about what the ROS path changes.
+    """
+    root = tmp_path_factory.mktemp("lab-b")
+    start = time.monotonic()
+    direct_build = run_build(WORLD, root / "direct")
+    direct_s = time.monotonic() - start
+    bridge = Bridge(roscore, "--mode", "build")
+    try:
+        start = time.monotonic()
+        ros_build = run_build_ros(root / "ros", _config())
+        ros_s = time.monotonic() - start
+    finally:
+        bridge.stop()
+    reference = _copy_build(root / "ros", root / "direct-monitor")
+    run_monitor(WORLD, reference, 1, config=_config())
+    return SimpleNamespace(
+        root=root,
+        direct=root / "direct",
+        ros=root / "ros",
+        direct_build=direct_build,
+        ros_build=ros_build,
+        wall_s=(direct_s, ros_s),
+        reference_f1=_f1(reference),
+    )
+
+
+def test_build_and_monitor_through_ros_match_the_direct_simulator(roscore, lab_b):
+    assert lab_b.ros_build.succeeded and lab_b.ros_build.summary["termination"] == "done"
+    ros_cov, direct_cov = _coverage(lab_b.ros), _coverage(lab_b.direct)
+    assert direct_cov > 0.8  # the direct build explored the building ...
+    assert abs(ros_cov - direct_cov) <= 0.05  # ... and the ROS one as much of it
+
+    result = _monitor_ros(roscore, lab_b.ros)
+    assert result.succeeded and result.summary["outcome"] == "completed"
+    report = json.loads((lab_b.ros / "sessions" / "1" / "report.json").read_text())
+    assert report["traversal"]["visited"] == report["traversal"]["waypoints"] > 0
+    assert report["path_length_m"] > 10.0  # odometry through tf
+    assert lab_b.reference_f1 > 0.5
+    assert abs(_f1(lab_b.ros) - lab_b.reference_f1) <= 0.05
+
+
+class _NavFailures:
+    """Tree hook: the feedback of every failure of the waypoint goal (the retry's child)."""
+
+    def __init__(self):
+        self.messages: list[str] = []
+        self._last = None
+
+    def __call__(self, runner) -> None:
+        node = next(n for n in runner.root.iterate() if n.name == "Navigate To Waypoint")
+        state = (node.status.name, node.feedback_message)
+        if state != self._last and node.status.name == "FAILURE":
+            self.messages.append(node.feedback_message)
+        self._last = state
+
+
+def test_move_base_abort_goes_through_the_retry_and_the_pass_completes(roscore, lab_b, tmp_path):
+    site = _copy_build(lab_b.ros, tmp_path / "site")
+    failures = _NavFailures()
+    result = _monitor_ros(roscore, site, "--abort-goals", "1", hooks=[failures])
+    assert failures.messages and "aborted" in failures.messages[0]  # the bridge's injected abort
+    assert result.succeeded
+    traversal = json.loads((site / "sessions" / "1" / "report.json").read_text())["traversal"]
+    # Without "Retry Goal" the aborted first waypoint would have been detoured or missed.
+    assert traversal["visited"] == traversal["waypoints"] and traversal["detoured"] == traversal["missed"] == 0
+
+
+def test_monitor_pass_with_16bit_depth(roscore, lab_b, tmp_path):
+    site = _copy_build(lab_b.ros, tmp_path / "site")
+    result = _monitor_ros(roscore, site, "--depth-encoding", "16UC1")
+    assert result.succeeded and result.summary["frames"] > 50
+    assert abs(_f1(site) - lab_b.reference_f1) <= 0.05  # millimetre depth changes no detection
+
+
+# -- the command line ------------------------------------------------------------------------
+def _cli_config(tmp_path: Path, categories: bool = True) -> Path:
+    path = tmp_path / "ros.yaml"
+    ros = {k: v for k, v in SIM_PARAMS.items() if k != "instances_topic"}  # the sim backend implies it
+    data = {"ros": ros, "perception": {"categories": world_categories(load_world(WORLD)) if categories else []}}
+    path.write_text(json.dumps(data))  # JSON is YAML
+    return path
+
+
+def test_cli_monitor_ros_without_camera_info_exits_1_with_one_line(roscore, lab_b, tmp_path, capsys):
+    site = _copy_build(lab_b.ros, tmp_path / "site")
+    bridge = Bridge(roscore, "--mode", "monitor", "--map", str(site / "map.yaml"), "--no-camera-info")
+    try:
+        start = time.monotonic()
+        code = bomc(["monitor", "--ros", "--site", str(site), "--session", "1", "--quiet",
+                     "--config", str(_cli_config(tmp_path))])
+    finally:
+        bridge.stop()
+    err = capsys.readouterr().err
+    assert code == 1 and time.monotonic() - start < 60.0
+    assert "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("bomc: mission failed: no camera_info on /head_camera/rgb/camera_info")
+
+
+@pytest.fixture
+def built_site(tmp_path) -> Path:
+    run_build(WORLD, tmp_path / "site", max_time=5.0)
+    return tmp_path / "site"
+
+
+def test_cli_monitor_ros_without_categories_exits_2(built_site, tmp_path, capsys):
+    code = bomc(["monitor", "--ros", "--site", str(built_site), "--session", "1", "--quiet",
+                 "--config", str(_cli_config(tmp_path, categories=False))])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.strip().splitlines() == [f"bomc: error: {tmp_path / 'ros.yaml'}: perception.categories: set the "
+                                        "objects to look for (perception.categories) when running on ROS"]
+
+
+def test_cli_build_ros_without_ros_exits_2_with_the_apt_command(tmp_path):
+    # Where ROS is installed, hide it from the child (import_ros only looks in ROS_PYTHON_PATH).
+    code = ("import sys, bomc_bt.ros as r; r.ROS_PYTHON_PATH = '/nonexistent'; "
+            "from bomc_bt.cli import main; sys.exit(main(sys.argv[1:]))")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    proc = subprocess.run([sys.executable, "-c", code, "build", "--ros", "--site", str(tmp_path / "site")],
+                          capture_output=True, text=True, env=env, cwd=ROOT, timeout=60)
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "ROS 1 is not available" in lines[0]
+    assert "sudo apt-get install -y ros-core python3-rospy" in lines[0]
+    assert not (tmp_path / "site").exists()  # nothing created before the check
+
+
+def test_cli_world_is_required_without_ros_and_refused_with_it(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        bomc(["build", "--site", str(tmp_path / "a")])
+    assert exc.value.code == 2 and "--world (or --ros" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        bomc(["monitor", "--ros", "--world", str(WORLD), "--site", str(tmp_path / "a"), "--session", "1"])
+    assert exc.value.code == 2 and "with --ros the robot is the world" in capsys.readouterr().err

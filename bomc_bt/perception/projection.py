@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Literal
 
 import cv2
 import numpy as np
@@ -39,6 +40,16 @@ class ProjectionParams:
     stride: int = 2  # sample every stride-th pixel in both directions
     max_depth: float = 6.0  # m: depth noise grows with depth^2, so farther pixels are not used
     fov_columns: int = 64  # image columns sampled for the FoV polygon
+    # m: a node farther from the camera is not expected to be detected (robust mode): far
+    # objects are small in the image and often missed, so their absence proves little.
+    expect_range: float = 4.0
+    # How an object's position is taken from its points: "mean" is the paper's (the mean of
+    # the masked point cloud); "footprint" keeps the mean height but takes x, y from the
+    # middle of the points' spread on the floor (1st to 99th percentile). The mean of the
+    # *visible* surface leans towards the viewer by up to half the object's depth, so a
+    # table seen from two sides gives two centroids a metre apart; the footprint's middle
+    # stays put as long as the top or two faces are in view.
+    centre: Literal["mean", "footprint"] = "footprint"
 
     def __post_init__(self) -> None:
         if self.min_points < 1:
@@ -153,6 +164,19 @@ def _dominant_cluster(r: np.ndarray) -> np.ndarray | slice:
     return dev <= max(_MIN_HALF_WIDTH, _MAD_K * float(np.median(dev)))
 
 
+def horizontal_extent(points_map: np.ndarray, centre: np.ndarray, quantile: float = 0.95) -> float:
+    """How far (m, in the floor plane) the object's visible points spread from its centroid.
+
+    The centroid of a table seen from its end and from its side differs by up to half its
+    length; association uses this spread to tell "the same big object from another side"
+    from "a second object" (see AssociationParams.extent_gate).
+    """
+    if len(points_map) == 0:
+        return 0.0
+    d = np.hypot(points_map[:, 0] - centre[0], points_map[:, 1] - centre[1])
+    return float(np.quantile(d, quantile))
+
+
 def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
                                params: ProjectionParams | None = None,
                                stats: ProjectionStats | None = None) -> list[Observation]:
@@ -178,8 +202,14 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         # Same as robust_centroid(points_map, camera position), cheaper: ranges are norms in
         # the camera frame, and the transform is affine, so only the mean is transformed.
         keep = _dominant_cluster(np.sqrt(np.einsum("ij,ij->i", cam, cam)))
-        centre = T[:3, :3] @ cam[keep].mean(axis=0) + T[:3, 3]
-        out.append(Observation(det.category, centre, float(det.score), len(cam)))
+        kept = cam[keep]
+        centre = T[:3, :3] @ kept.mean(axis=0) + T[:3, 3]
+        points = kept @ T[:3, :3].T + T[:3, 3]
+        if params.centre == "footprint":
+            lo, hi = np.percentile(points[:, :2], [1.0, 99.0], axis=0)
+            centre = np.array([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, centre[2]])
+        out.append(Observation(det.category, centre, float(det.score), len(cam),
+                               horizontal_extent(points, centre)))
         stats.observations += 1
     return out
 

@@ -24,6 +24,7 @@ import os
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -45,10 +46,8 @@ from bomc_bt.ros.params import RosParams
 
 LOCALIZED_STD = (0.05, 0.03)  # m, rad: the covariance /amcl_pose reports once localized
 LOST_STD = (2.0, 1.5)  # ... and while not localized (after a failed or global request)
-COUNT_WAIT = 2.0
-SIM_INSTANCES_TOPIC = (
-    "/bomc_sim/instances"  # wall s to wait for announced goals to arrive before stepping anyway
-)
+COUNT_WAIT = 2.0  # wall s to wait for announced goals to arrive before stepping anyway
+SIM_INSTANCES_TOPIC = "/bomc_sim/instances"  # the per-pixel instance image the sim detector reads
 
 
 class SimBridge:
@@ -438,13 +437,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def build_bridge(args: argparse.Namespace) -> SimBridge:
     from bomc_bt.config import load_config
     from bomc_bt.grid import load_map
-    from bomc_bt.params import from_mapping
     from bomc_bt.sim.camera import SimCamera
     from bomc_bt.sim.robot import SimRobot
     from bomc_bt.world import load_world
 
     config = load_config(args.config, robot="sim")
-    params = from_mapping(RosParams, config.ros, config.source[-1], "ros")
+    params = replace(config.ros)  # a copy: the command-line overrides below stay local
     if args.depth_encoding:
         params.depth_encoding = args.depth_encoding
     # The simulated detector needs the per-pixel instances: served on a sim-only topic.

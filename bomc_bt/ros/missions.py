@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
 
@@ -18,16 +19,28 @@ from bomc_bt.errors import BomcError
 from bomc_bt.geometry import Pose2D
 from bomc_bt.mission import MissionContext
 from bomc_bt.params import from_mapping
+from bomc_bt.ros import import_ros
 from bomc_bt.ros.params import RosParams
 from bomc_bt.run import MissionResult, build_config, check_session, default_tree, make_perception, run_tree
 from bomc_bt.site import Site
 
 
 def ros_params(config: Config) -> RosParams:
-    """The ``ros:`` section as a validated record (errors name the config file)."""
+    """The ``ros:`` section as a validated record (errors name the config file).
+
+    The simulated detector reads the per-pixel instance image that only the sim-over-ROS
+    bridge publishes, so with ``perception.backend: sim`` an unset ``ros.instances_topic``
+    means the bridge's topic (a real robot runs the ONNX backend and never needs it).
+    """
     if isinstance(config.ros, RosParams):
-        return config.ros
-    return from_mapping(RosParams, config.ros, config.source[-1] if config.source else None, "ros")
+        params = replace(config.ros)
+    else:  # a plain mapping (configs built by hand)
+        params = from_mapping(RosParams, config.ros, config.source[-1] if config.source else None, "ros")
+    if config.perception.backend == "sim" and not params.instances_topic:
+        from bomc_bt.ros.bridge import SIM_INSTANCES_TOPIC
+
+        params.instances_topic = SIM_INSTANCES_TOPIC
+    return params
 
 
 def dock_pose(site: Site) -> Pose2D:
@@ -62,12 +75,14 @@ def run_build_ros(
     quiet: bool = True,
     stream: TextIO = sys.stdout,
     hooks: list[Callable] = (),
+    context_hooks: list[Callable] = (),
 ) -> MissionResult:
     """Explore with the build tree on the ROS robot (GMapping's /map, move_base); save the map."""
     from behaviours.save_map import SaveMap, build_summary
     from bomc_bt.ros.robot import RosRobot
     from bomc_bt.site import write_json
 
+    import_ros()  # before anything is created: a missing ROS is a one-line error with the apt command
     config = config or build_config(robot="fetch")
     if explorer:
         config.exploration.explorer = explorer
@@ -84,6 +99,7 @@ def run_build_ros(
             stream=stream,
             max_time=limit * 1.25 + 120.0,
             hooks=_hooks(robot, ctx, params, hooks),
+            context_hooks=context_hooks,
             on_interrupt=lambda c: SaveMap.save(c),
         )
         if ctx.trajectory is not None:
@@ -112,6 +128,7 @@ def run_monitor_ros(
     quiet: bool = True,
     stream: TextIO = sys.stdout,
     hooks: list[Callable] = (),
+    context_hooks: list[Callable] = (),
     max_time: float = 4 * 3600.0,
 ) -> MissionResult:
     """One monitoring pass on the ROS robot (map_server + AMCL + move_base + the head camera)."""
@@ -137,6 +154,7 @@ def run_monitor_ros(
             config.source[-1] if config.source else None,
             "perception.categories",
         )
+    import_ros()
     store = SiteStore(site.store_path)
     robot = None
     try:
@@ -183,6 +201,7 @@ def run_monitor_ros(
             stream=stream,
             max_time=max_time,
             hooks=_hooks(robot, ctx, params, hooks),
+            context_hooks=context_hooks,
             on_interrupt=interrupted,
         )
         result.summary = session_summary(ctx)

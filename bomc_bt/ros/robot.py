@@ -297,6 +297,8 @@ class RosRobot:
         self.action_client = actionlib.ActionClient(p.move_base_action, MoveBaseAction)
         self._wait_for_start()
         self._last_tick = self.now()
+        self.distance_travelled = 0.0  # m along odom -> base_link (the session report's path length)
+        self._odom_xy: tuple[float, float] | None = None
 
     # -- start-up --------------------------------------------------------------------------
     def _wait_for_start(self) -> None:
@@ -420,6 +422,19 @@ class RosRobot:
                 wall_start = wall
                 self._publish_tick(target)
         self._last_tick = target
+        self._track_odometry()
+
+    def _track_odometry(self) -> None:
+        """Add the odom-frame translation since the last tick: smooth, unlike map -> base_link."""
+        if not self.params.odom_frame:
+            return
+        m = self._lookup(self.params.odom_frame, self.params.base_frame, None)
+        if m is None:
+            return
+        xy = (float(m[0, 3]), float(m[1, 3]))
+        if self._odom_xy is not None:
+            self.distance_travelled += math.hypot(xy[0] - self._odom_xy[0], xy[1] - self._odom_xy[1])
+        self._odom_xy = xy
 
     def _publish_tick(self, target: float) -> None:
         from std_msgs.msg import String

@@ -1,0 +1,111 @@
+"""Tick-simulation tests: whole build and monitor missions on the built-in simulator.
+
+These run the real trees from ``trees/`` against :class:`bomc_bt.sim.robot.SimRobot` and
+check what a user would look at: how much of the building the saved map covers, that it
+loads back, that runs are reproducible, and how well the object graph matches the
+world's ground truth session after session.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bomc_bt import run
+from bomc_bt.evaluate_site import evaluate_session
+from bomc_bt.exploration.coverage import map_coverage, solid_mask
+from bomc_bt.grid import load_map
+from bomc_bt.store import SiteStore
+from bomc_bt.world import load_world
+
+TESTS = Path(__file__).resolve().parent
+
+
+def coverage_of(world_path: Path, site: Path) -> float:
+    world = load_world(world_path)
+    solid = solid_mask(world.grid, world.walls(), [o.footprint() for o in world.objects_in_session(1).values()])
+    return map_coverage(load_map(site / "map.yaml"), world.grid, solid, world.start).fraction
+
+
+def config_with(tmp_path: Path, text: str):
+    path = tmp_path / "extra.yaml"
+    path.write_text(text)
+    return run.build_config([str(path)])
+
+
+@pytest.mark.parametrize("world", ["shared:lab-b", "shared:office-s", "small_house", "bookstore"])
+def test_build_covers_the_reachable_free_area(world, shared, tmp_path):
+    path = shared / "worlds" / f"{world[7:]}.yaml" if world.startswith("shared:") else TESTS / "worlds" / f"{world}.yaml"
+    result = run.run_build(path, tmp_path, seed=0)
+    assert result.succeeded, result.reason
+    assert result.summary["termination"] == "done"
+    assert coverage_of(path, tmp_path) >= 0.95
+    grid = load_map(tmp_path / "map.yaml")  # loads back in map_server format
+    assert grid.free_area() > 50.0
+    rows = (tmp_path / "trajectory.csv").read_text().splitlines()
+    assert rows[0] == "t,x,y,yaw" and len(rows) > 20
+    summary = json.loads((tmp_path / "build.json").read_text())
+    assert summary["explored_area_m2"] > 50.0 and summary["path_length_m"] > 5.0
+
+
+def test_build_is_deterministic_for_a_seed(shared, tmp_path):
+    world = shared / "worlds" / "lab-b.yaml"
+    run.run_build(world, tmp_path / "a", seed=3)
+    run.run_build(world, tmp_path / "b", seed=3)
+    for name in ("map.pgm", "map.yaml", "trajectory.csv"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+
+
+def test_build_stops_at_the_time_limit_and_still_saves_the_map(shared, tmp_path):
+    result = run.run_build(shared / "worlds" / "office-s.yaml", tmp_path, max_time=60.0)
+    assert result.succeeded
+    assert result.summary["termination"] == "time limit"
+    assert result.sim_time <= 62.0
+    assert load_map(tmp_path / "map.yaml").free_area() > 20.0
+
+
+def _monitor_sessions(world: Path, site: Path, config, sessions=(1, 2, 3)) -> dict[int, float]:
+    run.run_build(world, site, seed=0, config=config)
+    scores = {}
+    for n in sessions:
+        result = run.run_monitor(world, site, n, seed=n, config=config)
+        assert result.succeeded, result.reason
+        scores[n] = evaluate_session(world, site, n, config).overall.f1
+    return scores
+
+
+@pytest.mark.parametrize("name", ["lab-b", "office-s"])
+def test_perfect_detector_maps_every_session_exactly(name, shared, tmp_path):
+    config = config_with(tmp_path, "detector: {preset: perfect}\n")
+    world = shared / "worlds" / f"{name}.yaml"
+    scores = _monitor_sessions(world, tmp_path / "site", config)
+    for n, f1 in scores.items():
+        result = evaluate_session(world, tmp_path / "site", n, config)
+        for category, s in result.classes.items():
+            assert s.f1 == 1.0, (n, category, s)
+        assert f1 == 1.0
+
+
+@pytest.mark.parametrize("name", ["lab-b", "office-s"])
+def test_realistic_detector_keeps_f1_above_0_9(name, shared, tmp_path):
+    config = run.build_config()
+    scores = _monitor_sessions(shared / "worlds" / f"{name}.yaml", tmp_path / "site", config)
+    assert all(f1 >= 0.9 for f1 in scores.values()), scores
+
+
+def test_ids_are_unique_and_continue_across_sessions(shared, tmp_path):
+    config = config_with(tmp_path, "detector: {preset: perfect}\n")
+    world = shared / "worlds" / "lab-b.yaml"
+    _monitor_sessions(world, tmp_path / "site", config, sessions=(1, 2))
+    store = SiteStore(tmp_path / "site" / "site.db")
+    try:
+        added = [e for e in store.events() if e.kind == "added"]
+        ids = [e.node_id for e in added]
+        assert len(ids) == len(set(ids))
+        first = max(e.node_id for e in added if e.session == 1)
+        assert all(e.node_id > first for e in added if e.session == 2)
+        assert {s.number for s in store.sessions()} == {1, 2}
+    finally:
+        store.close()
