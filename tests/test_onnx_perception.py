@@ -332,7 +332,7 @@ def test_planted_detection_becomes_a_graph_node_at_the_expected_map_position(tmp
     assert [o.category for o in obs] == ["table"]
     # Pixel centre (320, 240) at 3 m is straight ahead: base x 3 m -> map (2, 4), z 0.5 m.
     np.testing.assert_allclose(obs[0].position, [2.0, 4.0, 0.5], atol=0.05)
-    graph = ObjectGraph(AssociationParams(confirm_detections=1)  # one frame: no second sighting)
+    graph = ObjectGraph(AssociationParams(confirm_detections=1))  # one frame: no second sighting
     graph.associate(obs, expected=[], session=1, stamp=0.0)
     nodes = list(graph.nodes.values())
     assert len(nodes) == 1 and nodes[0].category == "table"
