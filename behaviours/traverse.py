@@ -16,7 +16,7 @@ from bomc_bt.monitoring import DETOURED, MISSED, VISITED, TraversalState, detour
 from bomc_bt.planner import GridPlanner
 from bomc_bt.robot import Status as Nav
 from bomc_bt.site import write_json
-from bomc_bt.traversal import load_trajectory, plan_traversal, snap_to_free
+from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
 
@@ -40,23 +40,29 @@ class PlanTraversal(Leaf):
     def update(self) -> Status:
         ctx = self.context
         if ctx.traverse is None:
-            grid = ctx.robot.live_map()
-            trajectory = load_trajectory(ctx.site.trajectory_csv)
-            pose = ctx.robot.pose()
-            planner = GridPlanner(grid, ctx.config.sim.planner)
-            plan = plan_traversal(trajectory, pose, ctx.config.traversal, grid_distance=planner.distance)
-            plan.waypoints = snap_to_free(grid, plan.waypoints, self.params.clearance)
-            write_json(ctx.site.plan_json, plan.to_json())
-            ctx.plan = plan
-            ctx.traverse = TraversalState(plan)
             saved = ctx.store.get_progress(progress_key(ctx)) if ctx.extras.get("resume") else None
-            if saved:
+            if saved and "plan" in saved:  # resuming: the same plan, at the next waypoint
+                ctx.plan = TraversalPlan.from_json(saved["plan"], ctx.store.path)
+                ctx.traverse = TraversalState(ctx.plan)
                 ctx.traverse.restore(saved)
+            else:
+                ctx.plan = self.plan(ctx)
+                ctx.traverse = TraversalState(ctx.plan)
+                ctx.store.set_progress(progress_key(ctx), {**ctx.traverse.to_json(), "plan": ctx.plan.to_json()})
         ctx.progress.waypoints = len(ctx.traverse.states)
         ctx.progress.waypoint = ctx.traverse.done_count
         length = ctx.plan.grid_length or ctx.plan.euclidean_length
         self.feedback_message = f"{len(ctx.plan.waypoints)} waypoints, {length:.0f} m"
         return Status.SUCCESS
+
+    def plan(self, ctx) -> TraversalPlan:
+        grid = ctx.robot.live_map()
+        trajectory = load_trajectory(ctx.site.trajectory_csv)
+        planner = GridPlanner(grid, ctx.config.sim.planner)
+        plan = plan_traversal(trajectory, ctx.robot.pose(), ctx.config.traversal, grid_distance=planner.distance)
+        plan.waypoints = snap_to_free(grid, plan.waypoints, self.params.clearance)
+        write_json(ctx.site.plan_json, plan.to_json())
+        return plan
 
 
 @register("NextWaypoint")
@@ -171,7 +177,7 @@ class MarkWaypoint(Leaf):
         ctx = self.context
         i = ctx.traverse.current
         ctx.traverse.mark(i, self.params.state)
-        ctx.store.set_progress(progress_key(ctx), ctx.traverse.to_json())
+        ctx.store.set_progress(progress_key(ctx), {**ctx.traverse.to_json(), "plan": ctx.plan.to_json()})
         ctx.progress.waypoint = ctx.traverse.done_count
         self.feedback_message = f"waypoint {i + 1} {self.params.state}"
         return Status.SUCCESS

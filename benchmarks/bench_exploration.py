@@ -79,6 +79,10 @@ def sample_starts(world: World, n: int, clearance: float, seed: int) -> list[Pos
     """
     grid = world.grid
     blocked = solid(world)
+    # The simulator treats everything outside the image as solid; maps whose free space runs
+    # to the image edge (the hospital map's does) must not put a start against that edge.
+    blocked[[0, -1], :] = True
+    blocked[:, [0, -1]] = True
     _, labels, stats, _ = cv2.connectedComponentsWithStats((~world.walls()).astype(np.uint8), connectivity=4)
     if len(stats) < 2:
         raise SystemExit(f"{world.path}: the map has no free region")

@@ -181,6 +181,33 @@ def world_categories(world) -> list[str]:
     return sorted(cats)
 
 
+def parked_near(world, dock, seed: int, clearance: float, max_offset: float = 0.5, max_angle: float = 0.35):
+    """Where the simulated robot really is at the start of a pass: near the dock, not on it.
+
+    A robot parked by hand or by a previous run is off by decimetres and degrees; the
+    monitor tree's relocalization has to find it from the dock pose. Seeded, and always
+    on free floor with room for the robot.
+    """
+    import math
+
+    import numpy as np
+
+    from bomc_bt.geometry import Pose2D, wrap_angle
+
+    rng = np.random.default_rng([seed, 4242])
+    walls = world.walls()
+    grid = world.grid
+    for _ in range(50):
+        r, a = max_offset * math.sqrt(rng.random()), rng.uniform(0.0, 2.0 * math.pi)
+        x, y = dock.x + r * math.cos(a), dock.y + r * math.sin(a)
+        rows, cols = grid.world_to_cell(x + clearance * np.cos(np.linspace(0, 6.28, 12)),
+                                        y + clearance * np.sin(np.linspace(0, 6.28, 12)))
+        inside = grid.in_bounds(rows, cols)
+        if inside.all() and not walls[rows, cols].any():
+            return Pose2D(x, y, wrap_angle(dock.yaw + rng.uniform(-max_angle, max_angle)))
+    return dock
+
+
 def check_session(store, session: int, resume: bool, store_path: Path) -> None:
     """Sessions run in order and history is never overwritten."""
     records = {s.number: s for s in store.sessions()}
@@ -223,7 +250,9 @@ def run_monitor(world_path: str | Path, site_dir: str | Path, session: int, *, s
         check_session(store, session, resume, site.store_path)
         graph: ObjectGraph = store.load_graph(config.association)
         camera = SimCamera(config.camera, seed=seed)
-        robot = SimRobot(world, session=session, params=config.sim, seed=seed, mode="monitor", camera=camera)
+        robot = SimRobot(world, session=session, params=config.sim, seed=seed, mode="monitor", camera=camera,
+                         relocalization=config.relocalization,
+                         start=parked_near(world, world.start, seed, config.sim.planner.robot_radius + 0.1))
         robot.use_map(grid)
         detector, segmenter = make_perception(config, seed, Path(config.source[-1]).parent)
         categories = config.perception.categories or world_categories(world)

@@ -15,3 +15,24 @@ def shared() -> Path:
     if not (SHARED / "worlds").is_dir():
         pytest.skip(f"shared data not found at {SHARED}")
     return SHARED
+
+
+@pytest.fixture(scope="session")
+def office_realistic(shared, tmp_path_factory):
+    """office-s built once and monitored in sessions 1-3 with the realistic detector.
+
+    Shared by the mission tests (F1) and the robustness tests (fault-free baseline,
+    the blocked corridor of session 3), so the slow passes run once per test session.
+    """
+    from bomc_bt import run
+    from bomc_bt.evaluate_site import evaluate_session
+
+    world = shared / "worlds" / "office-s.yaml"
+    site = tmp_path_factory.mktemp("office-realistic")
+    config = run.build_config()
+    run.run_build(world, site, seed=0, config=config)
+    passes = {}
+    for n in (1, 2, 3):
+        result = run.run_monitor(world, site, n, seed=n, config=config)
+        passes[n] = {"result": result, "f1": evaluate_session(world, site, n, config).overall.f1}
+    return {"world": world, "site": site, "config": config, "passes": passes}

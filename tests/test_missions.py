@@ -88,10 +88,15 @@ def test_perfect_detector_maps_every_session_exactly(name, shared, tmp_path):
         assert f1 == 1.0
 
 
-@pytest.mark.parametrize("name", ["lab-b", "office-s"])
-def test_realistic_detector_keeps_f1_above_0_9(name, shared, tmp_path):
-    config = run.build_config()
-    scores = _monitor_sessions(shared / "worlds" / f"{name}.yaml", tmp_path / "site", config)
+def test_realistic_detector_keeps_f1_above_0_9_on_lab_b(shared, tmp_path):
+    scores = _monitor_sessions(shared / "worlds" / "lab-b.yaml", tmp_path / "site", run.build_config())
+    assert all(f1 >= 0.9 for f1 in scores.values()), scores
+
+
+def test_realistic_detector_keeps_f1_above_0_9_on_office_s(office_realistic):
+    scores = {n: p["f1"] for n, p in office_realistic["passes"].items()}
+    print("office-s realistic F1 per session:", scores)
+    assert all(p["result"].succeeded for p in office_realistic["passes"].values())
     assert all(f1 >= 0.9 for f1 in scores.values()), scores
 
 

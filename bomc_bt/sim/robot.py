@@ -99,9 +99,10 @@ class SimRobot:
 
     def __init__(self, world: World, session: int = 1, params: SimParams | None = None, seed: int = 0,
                  mode: Literal["build", "monitor"] = "build", camera: Any = None,
-                 relocalization: Any = None):
+                 relocalization: Any = None, start: Pose2D | None = None):
         """``relocalization``: a :class:`bomc_bt.localization.RelocalizationParams` for the
-        scan matcher (None: its defaults)."""
+        scan matcher (None: its defaults). ``start``: the true start pose (default the
+        world's dock pose; a monitor pass starts near the dock, not exactly on it)."""
         if mode not in ("build", "monitor"):
             raise ValueError(f"mode must be 'build' or 'monitor', got {mode!r}")
         self.params = params or SimParams()
@@ -125,7 +126,7 @@ class SimRobot:
         self.people = People(self.scene, p.faults.people, p.faults.person_speed, people_rng,
                              keep_clear=(world.start.x, world.start.y))
         self.lidar = Lidar(p.lidar)
-        self._true = world.start
+        self._true = start or world.start
         self.distance_travelled = 0.0
         self.navigator = Navigator(p.motion, p.planner.goal_tolerance, self._nav_rng,
                                    p.faults.nav_failure_probability)
