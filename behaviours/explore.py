@@ -7,6 +7,7 @@ decisions are :class:`bomc_bt.exploration.explorer.Explorer`'s; these leaves onl
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from py_trees.common import Status
@@ -99,7 +100,10 @@ class DriveToFrontier(Leaf):
 
     def initialise(self) -> None:
         self.goal = self.get("goal")
-        self.handle = self.context.robot.navigate(Pose2D(*self.goal.xy, 0.0))
+        pose = self.context.robot.pose()
+        # Arrive facing the frontier: the lidar's blind sector is behind the robot.
+        yaw = math.atan2(self.goal.xy[1] - pose.y, self.goal.xy[0] - pose.x) if pose is not None else 0.0
+        self.handle = self.context.robot.navigate(Pose2D(*self.goal.xy, yaw))
         self.next_check = self.context.now() + self.params.recheck_period
 
     def update(self) -> Status:

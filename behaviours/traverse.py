@@ -7,12 +7,13 @@ store after every waypoint so a killed pass resumes at the next one.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from py_trees.common import Status
 
 from bomc_bt.geometry import Pose2D
-from bomc_bt.monitoring import DETOURED, MISSED, VISITED, TraversalState, detour_viewpoints
+from bomc_bt.monitoring import DETOURED, MISSED, VISITED, TraversalState, detour_viewpoints, unverified_headings
 from bomc_bt.planner import GridPlanner
 from bomc_bt.robot import Status as Nav
 from bomc_bt.site import write_json
@@ -153,7 +154,7 @@ class FindDetour(Leaf):
             return Status.FAILURE
         x, y = options[0]
         tried.append((x, y))
-        self.set("goal", Pose2D(x, y, target.yaw))
+        self.set("goal", Pose2D(x, y, math.atan2(target.y - y, target.x - x)))  # look at the waypoint
         self.feedback_message = f"detour for waypoint {i + 1} via ({x:.1f}, {y:.1f})"
         return Status.SUCCESS
 
@@ -181,3 +182,55 @@ class MarkWaypoint(Leaf):
         ctx.progress.waypoint = ctx.traverse.done_count
         self.feedback_message = f"waypoint {i + 1} {self.params.state}"
         return Status.SUCCESS
+
+
+@dataclass
+class LookAroundParams:
+    radius: float = 5.0  # m: nodes this close are worth a look (projection.expect_range)
+    max_turns: int = 2  # headings per waypoint at most
+    dwell: float = 1.5  # s of robot time facing each heading (frames to confirm or miss)
+    timeout: float = 30.0  # s for the whole look-around
+
+
+@register("LookAround")
+class LookAround(Leaf):
+    """At a waypoint, turns the camera towards nodes this pass has not yet confirmed."""
+
+    Params = LookAroundParams
+
+    def initialise(self) -> None:
+        ctx = self.context
+        pose = ctx.robot.pose()
+        hfov = math.radians(ctx.config.camera.hfov_deg)
+        self.headings = [] if pose is None else unverified_headings(
+            ctx.graph, pose, ctx.session, ctx.robot.live_map(), self.params.radius, hfov, self.params.max_turns)
+        self.pose = pose
+        self.handle = None
+        self.dwell_until: float | None = None
+        self.deadline = ctx.now() + self.params.timeout
+
+    def update(self) -> Status:
+        ctx = self.context
+        if self.dwell_until is not None and ctx.now() < self.dwell_until:
+            return Status.RUNNING
+        if self.handle is not None and not self.handle.status().done:
+            if ctx.now() >= self.deadline:
+                self.handle.cancel()
+                return Status.SUCCESS
+            return Status.RUNNING
+        if self.handle is not None and self.dwell_until is None and self.handle.status() is Nav.SUCCEEDED:
+            self.dwell_until = ctx.now() + self.params.dwell
+            return Status.RUNNING
+        if not self.headings or ctx.now() >= self.deadline:
+            self.feedback_message = "nothing left to check here"
+            return Status.SUCCESS
+        heading = self.headings.pop(0)
+        self.handle = ctx.robot.navigate(Pose2D(self.pose.x, self.pose.y, heading))
+        self.dwell_until = None
+        self.feedback_message = f"looking towards {math.degrees(heading):.0f}°, {len(self.headings)} more"
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        handle = getattr(self, "handle", None)
+        if new_status == Status.INVALID and handle is not None and not handle.status().done:
+            handle.cancel()

@@ -343,9 +343,9 @@ class ObjectGraph:
         for j, o in enumerate(obs):
             if j in matched_obs or len(near[j][0]) or self._near_any(o, placed):
                 continue  # matched, or absorbed: a closer observation already matched that node
-            moved = self._move_candidate(o)
-            if moved is None and not self._confirmed(o, stamp):
+            if not self._confirmed(o, stamp):
                 continue
+            moved = self._move_candidate(o)
             events.append(self._move(moved, o, session, stamp) if moved else self._add(o, session, stamp))
             placed.append(self.nodes[events[-1].node_id])
         hidden = in_view - set(expected)

@@ -18,7 +18,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from bomc_bt.geometry import Pose2D
+from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon, visible
@@ -106,7 +106,8 @@ def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: 
     ok[ok] = dist[rows[ok], cols[ok]] >= clearance
     for ax, ay in avoid:
         ok &= np.hypot(xs - ax, ys - ay) > avoid_radius
-    picks = [(float(x), float(y)) for x, y in zip(xs[ok], ys[ok], strict=True) if _line_of_sight(grid, free, (x, y), target)]
+    picks = [(float(x), float(y)) for x, y in zip(xs[ok], ys[ok], strict=True)
+             if _line_of_sight(grid, free, (x, y), target)]
     picks.sort(key=lambda p: (math.hypot(p[0] - target[0], p[1] - target[1]), p))
     return picks[:count]
 
@@ -117,6 +118,37 @@ def _line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float]
     rows, cols = grid.world_to_cell(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
     inside = grid.in_bounds(rows, cols)
     return bool(inside.all() and free[rows, cols].all())
+
+
+def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, radius: float,
+                        fov: float, max_turns: int) -> list[float]:
+    """Headings to turn to so the camera checks nearby nodes this pass has not confirmed.
+
+    A node not matched in this session (or with misses pending) is either still there,
+    missed by the detector, or gone; the paper's robot only learns which if the camera
+    happens to look. Turning towards such nodes from a waypoint lets the graph confirm
+    them or count misses until removal is confirmed. Nodes behind a wall (no line of
+    sight on the map up to half a metre short of them) are left for another waypoint.
+    Headings are grouped into camera-wide windows, nearest turn first.
+    """
+    square = np.array([[pose.x - radius, pose.y - radius], [pose.x + radius, pose.y - radius],
+                       [pose.x + radius, pose.y + radius], [pose.x - radius, pose.y + radius]])
+    pending = set(graph.pending())
+    free = grid.free_mask()
+    bearings = []
+    for node in graph.nodes_in_polygon(square):
+        dx, dy = node.position[0] - pose.x, node.position[1] - pose.y
+        distance = math.hypot(dx, dy)
+        if distance > radius or distance < 0.5 or (node.last_session == session and node.id not in pending):
+            continue
+        stop = (pose.x + dx * (1 - 0.5 / distance), pose.y + dy * (1 - 0.5 / distance))
+        if _line_of_sight(grid, free, (pose.x, pose.y), stop):
+            bearings.append(math.atan2(dy, dx))
+    headings: list[float] = []
+    for b in sorted(bearings, key=lambda b: abs(wrap_angle(b - pose.yaw))):
+        if all(abs(wrap_angle(b - h)) > 0.4 * fov for h in headings):
+            headings.append(b)
+    return headings[:max_turns]
 
 
 class Coverage:

@@ -96,7 +96,8 @@ def coerce(hint: Any, value: Any, file, where: str) -> Any:
             if origin is tuple and args and args[-1] is not Ellipsis:
                 if len(value) != len(args):
                     raise BomcError(f"expected {len(args)} values, got {len(value)}", file, where)
-                return tuple(coerce(a, v, file, f"{where}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True)))
+                pairs = enumerate(zip(args, value, strict=True))
+                return tuple(coerce(a, v, file, f"{where}[{i}]") for i, (a, v) in pairs)
             item = args[0] if args else Any
             items = [coerce(item, v, file, f"{where}[{i}]") for i, v in enumerate(value)]
             return tuple(items) if origin is tuple else items

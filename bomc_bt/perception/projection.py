@@ -42,7 +42,7 @@ class ProjectionParams:
     fov_columns: int = 64  # image columns sampled for the FoV polygon
     # m: a node farther from the camera is not expected to be detected (robust mode): far
     # objects are small in the image and often missed, so their absence proves little.
-    expect_range: float = 4.0
+    expect_range: float = 5.0
     # How an object's position is taken from its points: "mean" is the paper's (the mean of
     # the masked point cloud); "footprint" keeps the mean height but takes x, y from the
     # middle of the points' spread on the floor (1st to 99th percentile). The mean of the

@@ -437,6 +437,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def build_bridge(args: argparse.Namespace) -> SimBridge:
     from bomc_bt.config import load_config
     from bomc_bt.grid import load_map
+    from bomc_bt.run import parked_near
     from bomc_bt.sim.camera import SimCamera
     from bomc_bt.sim.robot import SimRobot
     from bomc_bt.world import load_world
@@ -454,8 +455,17 @@ def build_bridge(args: argparse.Namespace) -> SimBridge:
             raise BomcError("monitor mode needs the map to serve (the site's map.yaml)", None, "--map")
         grid = load_map(args.map)
         camera = SimCamera(config.camera, seed=args.seed)
+        # Parked near the dock, as `bomc monitor` without ROS does: relocalization has work to do.
+        start = parked_near(world, world.start, args.seed, config.sim.planner.robot_radius + 0.1)
         sim = SimRobot(
-            world, session=args.session, params=config.sim, seed=args.seed, mode="monitor", camera=camera
+            world,
+            session=args.session,
+            params=config.sim,
+            seed=args.seed,
+            mode="monitor",
+            camera=camera,
+            relocalization=config.relocalization,
+            start=start,
         )
         sim.use_map(grid)
     else:

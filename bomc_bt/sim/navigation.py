@@ -42,6 +42,7 @@ class MotionParams:
     turn_in_place_angle: float = 0.8  # rad of heading error above which the robot turns on the spot
     heading_gain: float = 2.0  # turn rate per rad of heading error
     body_radius: float = 0.27  # m; the base's footprint for collisions (<= planner robot_radius)
+    yaw_tolerance: float = 0.15  # rad; at the goal position the robot turns to the goal's yaw, as move_base does
 
     def __post_init__(self) -> None:
         if self.max_speed <= 0 or self.max_turn_rate <= 0 or self.progress_timeout <= 0:
@@ -96,6 +97,7 @@ class Navigator:
         self._fail_at = math.inf
         self._stuck_since: float | None = None
         self._backup_until = -math.inf
+        self._at_position = False
 
     # -- goals ---------------------------------------------------------------------------
     def start(self, goal: Pose2D, pose: Pose2D, now: float, planner: PlannerSource,
@@ -106,6 +108,7 @@ class Navigator:
         handle = NavHandle(goal)
         self.handle = handle
         self.path = None
+        self._at_position = False
         self._best = math.inf
         self._last_progress = now
         self._fail_at = math.inf
@@ -158,8 +161,12 @@ class Navigator:
         p = self.params
         if now >= self._fail_at:
             return self._end(Status.FAILED, "navigation aborted (injected failure)")
-        if math.hypot(goal.x - pose.x, goal.y - pose.y) <= self.goal_tolerance:
-            return self._end(Status.SUCCEEDED, "goal reached")
+        if self._at_position or math.hypot(goal.x - pose.x, goal.y - pose.y) <= self.goal_tolerance:
+            self._at_position = True  # then only the heading is left: turn on the spot
+            err = wrap_angle(goal.yaw - pose.yaw)
+            if abs(err) <= p.yaw_tolerance:
+                return self._end(Status.SUCCEEDED, "goal reached")
+            return 0.0, math.copysign(min(p.max_turn_rate, max(0.3, p.heading_gain * abs(err))), err)
         if now >= self._next_check:
             result = self._check_path(pose, planner, path_clear, stuck)
             if result is not None:
