@@ -37,7 +37,8 @@ def config_with(tmp_path: Path, text: str):
 
 @pytest.mark.parametrize("world", ["shared:lab-b", "shared:office-s", "small_house", "bookstore"])
 def test_build_covers_the_reachable_free_area(world, shared, tmp_path):
-    path = shared / "worlds" / f"{world[7:]}.yaml" if world.startswith("shared:") else TESTS / "worlds" / f"{world}.yaml"
+    shared_world = world.startswith("shared:")
+    path = shared / "worlds" / f"{world[7:]}.yaml" if shared_world else TESTS / "worlds" / f"{world}.yaml"
     result = run.run_build(path, tmp_path, seed=0)
     assert result.succeeded, result.reason
     assert result.summary["termination"] == "done"

@@ -11,7 +11,8 @@ from bomc_bt.errors import BomcError
 from bomc_bt.graph import AssociationParams, Event, Observation
 from bomc_bt.store import SiteStore
 
-ROBUST = AssociationParams(mode="robust", confirm_misses=2, confirm_interval=0.5)
+# confirm_detections=1: these tests store single-frame additions (confirmation is tested in test_graph_extensions).
+ROBUST = AssociationParams(mode="robust", confirm_misses=2, confirm_interval=0.5, confirm_detections=1)
 
 
 def o(cat: str, x: float, y: float) -> Observation:

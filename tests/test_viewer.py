@@ -151,7 +151,7 @@ CHAIR, TABLE, PLANT = (2.0, 1.0), (4.0, -1.0), (6.0, 1.2)
 
 def make_mission():
     robot = CorridorRobot()
-    params = AssociationParams()
+    params = AssociationParams(confirm_detections=1)  # single-frame additions in this fake mission
     graph = ObjectGraph(params)
     ctx = Context(robot=robot, graph=graph)
     ctx.perception.events += graph.associate(
