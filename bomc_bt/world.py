@@ -199,10 +199,18 @@ class World:
 
 
 def wall_mask(grid: OccupancyGrid) -> np.ndarray:
-    """Occupied-or-unknown cells: what a simulator built on this map treats as solid."""
+    """Occupied-or-unknown cells: what a simulator built on this map treats as solid.
+
+    The image's outermost cells count as wall too: everything outside the image is wall,
+    and real SLAM maps often run free space out to the edge, where a robot would see
+    nothing (its lidar starts inside the wall) and a planner would route along a strip
+    that does not exist.
+    """
     cached = grid._cache.get("world_walls")
     if cached is None or cached.shape != grid.data.shape:
         cached = grid.occupied_mask() | grid.unknown_mask()
+        cached[[0, -1], :] = True
+        cached[:, [0, -1]] = True
         grid._cache["world_walls"] = cached
     return cached
 

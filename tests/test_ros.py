@@ -154,8 +154,11 @@ def _until_done(robot: RosRobot, handle, limit: float = 120.0) -> Status:
 
 
 def _settle(robot: RosRobot) -> None:
-    """A few ticks: a bridge restarted at time 0 makes tf2 drop its buffer first."""
+    """Ticks until tf is there: a bridge restarted at time 0 makes tf2 drop its buffer first."""
     for _ in range(5):
+        robot.step()
+    end = robot.now() + 5.0
+    while robot.pose() is None and robot.now() < end:
         robot.step()
     assert robot.pose() is not None
 
@@ -176,8 +179,9 @@ def test_build_mode_map_pose_and_goal(bridge):
         assert robot.now() == pytest.approx(0.3, abs=1e-6)  # lockstep: ticks advance ROS time
         grid = robot.live_map()
         assert grid.data.shape[0] > 10 and (grid.data == 0).any()  # the sim mapper's /map
+        _settle(robot)
         start = robot.pose()
-        assert start is not None and start.distance_to(Pose2D(4.5, 6.5, 0.0)) < 0.05
+        assert start.distance_to(Pose2D(4.5, 6.5, 0.0)) < 0.05
         handle = robot.navigate(Pose2D(6.0, 6.5, 0.0))
         assert _until_done(robot, handle) is Status.SUCCEEDED
         assert robot.pose().distance_to(start) > 1.0

@@ -41,7 +41,10 @@ class MotionParams:
     lookahead: float = 0.6  # m along the path the controller steers to
     turn_in_place_angle: float = 0.8  # rad of heading error above which the robot turns on the spot
     heading_gain: float = 2.0  # turn rate per rad of heading error
-    body_radius: float = 0.27  # m; the base's footprint for collisions (<= planner robot_radius)
+    # m; the base's footprint for collisions. Kept below the planner's lethal radius by more
+    # than the planning grid's discretisation (0.1 m cells read clearance at their centres),
+    # or plans that graze a pillar are refused step by step and the robot rocks in place.
+    body_radius: float = 0.24
     yaw_tolerance: float = 0.15  # rad; at the goal position the robot turns to the goal's yaw, as move_base does
 
     def __post_init__(self) -> None:
@@ -226,7 +229,15 @@ class Navigator:
         if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
             return self._end(Status.BLOCKED, "goal is inside an obstacle")
         path = current.plan(pose.xy, goal.xy)
-        if path is None:
+        escape = None if path is not None or current.traversable(pose.xy) else current.nearest_traversable(pose.xy, 1.0)
+        if escape is not None and math.hypot(*(escape - pose.xy)) > 0.02:
+            # Wedged inside the inflated zone with no plan from here: first step out of it
+            # (move_base's recovery would clear the costmap or back up), then replan.
+            self._set_path(np.array([pose.xy, escape]))
+            self._best = math.inf
+            self.handle._message = "escaping the inflated zone"
+            self._next_check = min(self._next_check, 0.0)
+        elif path is None:
             self.path = None
             self.handle._message = "waiting: the way is blocked by obstacles"
             self._best = math.inf

@@ -229,10 +229,27 @@ class SimRobot:
             after = self.scene.clearance(x, y)
             xy = np.array([x, y])
             if (after < radius and after <= before) or self.people.blocks(xy, radius):
-                x, y = t.x, t.y
+                x, y = self._slide_out(t, radius)
                 self._stuck = True
         self.distance_travelled += math.hypot(x - t.x, y - t.y)
         self._true = Pose2D(x, y, yaw)
+
+    def _slide_out(self, t: Pose2D, radius: float, step: float = 0.02) -> tuple[float, float]:
+        """Contact resolution: a base pressed against something slides a little away from it.
+
+        Without it a robot wedged in a spot tighter than its body (a half-seen doorway, a
+        chair leg) could refuse every forward and backward step for ever; a real base's
+        bumper pushes it off instead. The step follows the clearance gradient.
+        """
+        c = self.scene.clearance
+        before = c(t.x, t.y)
+        d = 0.05
+        gx, gy = c(t.x + d, t.y) - c(t.x - d, t.y), c(t.x, t.y + d) - c(t.x, t.y - d)
+        norm = math.hypot(gx, gy)
+        if norm < 1e-9:
+            return t.x, t.y
+        x, y = t.x + step * gx / norm, t.y + step * gy / norm
+        return (x, y) if c(x, y) > before else (t.x, t.y)
 
     # -- sensing and maps ------------------------------------------------------------------
     def _take_scan(self) -> None:
