@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import cv2
 import numpy as np
 import yaml
 
+from bomc_bt.atomic import atomic_write
 from bomc_bt.errors import BomcError
 
 UNKNOWN = -1
@@ -181,28 +181,14 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path) -> None:
     pixels[grid.data >= 65] = PGM_OCCUPIED
     pixels = np.flipud(pixels)
     header = f"P5\n# CREATOR: bomc-bt {grid.resolution:.3f} m/pix\n{grid.width} {grid.height}\n255\n"
-    _atomic_write(pgm_path, header.encode("ascii") + pixels.tobytes())
+    atomic_write(pgm_path, header.encode("ascii") + pixels.tobytes())
     meta = (
         f"image: {pgm_path.name}\n"
         f"resolution: {grid.resolution:.6f}\n"
         f"origin: [{grid.origin[0]:.6f}, {grid.origin[1]:.6f}, 0.000000]\n"
         "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n"
     )
-    _atomic_write(yaml_path, meta.encode("ascii"))
-
-
-def _atomic_write(path: Path, payload: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(payload)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write(yaml_path, meta.encode("ascii"))
 
 
 def _require(meta: dict, key: str, types, path: Path):

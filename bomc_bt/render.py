@@ -9,6 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from bomc_bt.atomic import atomic_write
 from bomc_bt.grid import OccupancyGrid
 
 
@@ -73,10 +74,7 @@ def _legend(img: np.ndarray, categories: dict[str, tuple[int, int, int]], title:
 
 
 def save_png(img: np.ndarray, path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
     ok, data = cv2.imencode(".png", img)
     if not ok:
         raise OSError(f"cannot encode {path}")
-    tmp = path.with_suffix(".png.tmp")
-    tmp.write_bytes(data.tobytes())
-    tmp.replace(path)
+    atomic_write(path, data.tobytes())

@@ -44,6 +44,30 @@ class Handle(Protocol):
     def message(self) -> str: ...
 
 
+class RequestHandle:
+    """A plain :class:`Handle`: RUNNING until someone calls :meth:`finish` or :meth:`cancel`."""
+
+    def __init__(self, message: str = "running"):
+        self._status = Status.RUNNING
+        self._message = message
+
+    def status(self) -> Status:
+        return self._status
+
+    @property
+    def message(self) -> str:
+        return self._message
+
+    def cancel(self) -> None:
+        self.finish(Status.CANCELLED, "cancelled")
+
+    def finish(self, status: Status, message: str) -> None:
+        """The first final status sticks (a late cancel does not undo a success)."""
+        if self._status is Status.RUNNING:
+            self._status = status
+            self._message = message
+
+
 @dataclass
 class LaserScan:
     """A planar scan: ranges (m, inf where nothing was hit) at evenly spaced angles."""

@@ -18,11 +18,11 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
+from bomc_bt.atomic import atomic_write
 from bomc_bt.errors import BomcError
 
 
@@ -71,19 +71,8 @@ class Site:
 
 def write_json(path: Path, payload: Any) -> None:
     """Replace ``path`` atomically with ``payload`` as indented JSON."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(payload, f, indent=2, sort_keys=False, default=_jsonable)
-            f.write("\n")
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    text = json.dumps(payload, indent=2, sort_keys=False, default=_jsonable) + "\n"
+    atomic_write(path, text.encode())
 
 
 def read_json(path: Path) -> Any:

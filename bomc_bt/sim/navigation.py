@@ -27,7 +27,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.planner import GridPlanner, path_length
-from bomc_bt.robot import Status
+from bomc_bt.robot import RequestHandle, Status
 
 
 @dataclass
@@ -54,28 +54,12 @@ class MotionParams:
             raise ValueError("replan_period, lookahead and body_radius must be > 0")
 
 
-class NavHandle:
+class NavHandle(RequestHandle):
     """One navigation goal's status, as returned by ``navigate``."""
 
     def __init__(self, goal: Pose2D):
+        super().__init__("driving")
         self.goal = goal
-        self._status = Status.RUNNING
-        self._message = "driving"
-
-    def status(self) -> Status:
-        return self._status
-
-    @property
-    def message(self) -> str:
-        return self._message
-
-    def cancel(self) -> None:
-        self.finish(Status.CANCELLED, "cancelled")
-
-    def finish(self, status: Status, message: str) -> None:
-        if self._status is Status.RUNNING:
-            self._status = status
-            self._message = message
 
 
 PlannerSource = Callable[[], GridPlanner]

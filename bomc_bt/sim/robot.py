@@ -32,7 +32,7 @@ import numpy as np
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.planner import GridPlanner, PlannerParams, path_clear_of
-from bomc_bt.robot import LaserScan, RGBDFrame, Status
+from bomc_bt.robot import LaserScan, RequestHandle, RGBDFrame, Status
 from bomc_bt.sim.clock import SimClock
 from bomc_bt.sim.faults import PERSON_RADIUS, FaultParams, People
 from bomc_bt.sim.lidar import Lidar, LidarParams
@@ -68,30 +68,14 @@ class SimParams:
             raise ValueError("dt must be > 0")
 
 
-class RelocHandle:
+class RelocHandle(RequestHandle):
     """A relocalization in flight: it completes after its duration of sim time."""
 
     def __init__(self, done_at: float, hint: Pose2D | None, global_search: bool):
+        super().__init__("relocalizing")
         self.done_at = done_at
         self.hint = hint
         self.global_search = global_search
-        self._status = Status.RUNNING
-        self._message = "relocalizing"
-
-    def status(self) -> Status:
-        return self._status
-
-    @property
-    def message(self) -> str:
-        return self._message
-
-    def cancel(self) -> None:
-        self.finish(Status.CANCELLED, "cancelled")
-
-    def finish(self, status: Status, message: str) -> None:
-        if self._status is Status.RUNNING:
-            self._status = status
-            self._message = message
 
 
 class SimRobot:
