@@ -87,6 +87,10 @@ class NextWaypoint(Leaf):
 @dataclass
 class NavigateToParams:
     timeout: float = 240.0  # s of robot time for one goal
+    # A goal reached after driving more than detour_ratio times the map's shortest path
+    # plus detour_margin metres went around something the map does not have: a detour.
+    detour_ratio: float = 1.3
+    detour_margin: float = 2.0
 
 
 @register("NavigateTo")
@@ -98,14 +102,28 @@ class NavigateTo(Leaf):
     writes = ("nav_failure",)
 
     def initialise(self) -> None:
+        ctx = self.context
         self.goal: Pose2D = self.get("goal")
-        self.handle = self.context.robot.navigate(self.goal)
-        self.deadline = self.context.now() + self.params.timeout
+        self.handle = ctx.robot.navigate(self.goal)
+        self.deadline = ctx.now() + self.params.timeout
+        self.start_odometer = getattr(ctx.robot, "distance_travelled", None)
+        pose = ctx.robot.pose()
+        self.expected = math.inf
+        if pose is not None and self.start_odometer is not None:
+            planner = ctx.extras.get("map_planner")
+            if planner is None:
+                planner = ctx.extras["map_planner"] = GridPlanner(ctx.robot.live_map(), ctx.config.sim.planner)
+            self.expected = planner.distance((pose.x, pose.y), (self.goal.x, self.goal.y))
+        ctx.extras["last_nav_detour"] = False
 
     def update(self) -> Status:
         status = self.handle.status()
         if status is Nav.SUCCEEDED:
-            self.feedback_message = f"reached ({self.goal.x:.1f}, {self.goal.y:.1f})"
+            driven = getattr(self.context.robot, "distance_travelled", 0.0) - (self.start_odometer or 0.0)
+            detour = driven > self.params.detour_ratio * self.expected + self.params.detour_margin
+            self.context.extras["last_nav_detour"] = detour
+            way = f" by a detour ({driven:.0f} m for {self.expected:.0f} m)" if detour else ""
+            self.feedback_message = f"reached ({self.goal.x:.1f}, {self.goal.y:.1f}){way}"
             return Status.SUCCESS
         if status.done:
             self.set("nav_failure", f"{status.value}: {self.handle.message}")
@@ -177,10 +195,13 @@ class MarkWaypoint(Leaf):
     def update(self) -> Status:
         ctx = self.context
         i = ctx.traverse.current
-        ctx.traverse.mark(i, self.params.state)
+        state = self.params.state
+        if state == VISITED and ctx.extras.get("last_nav_detour"):
+            state = DETOURED  # reached, but around something the map does not have
+        ctx.traverse.mark(i, state)
         ctx.store.set_progress(progress_key(ctx), {**ctx.traverse.to_json(), "plan": ctx.plan.to_json()})
         ctx.progress.waypoint = ctx.traverse.done_count
-        self.feedback_message = f"waypoint {i + 1} {self.params.state}"
+        self.feedback_message = f"waypoint {i + 1} {state}"
         return Status.SUCCESS
 
 
