@@ -190,6 +190,9 @@ class ObjectGraph:
         self._scale = np.array([1.0, 1.0, w])
         self._pos = np.zeros((1024, 3))
         self._slot_id = np.full(1024, -1, dtype=np.int64)
+        # robust: per slot, the gate its node's own size earns (0: delta_c), see _grow_gate
+        self._gate_slot = np.zeros(1024)
+        self._node_gates = params.mode == "robust"
         self._slot_of: dict[int, int] = {}
         self._free: list[int] = []
         self._used = 0  # high-water mark of slots
@@ -423,7 +426,19 @@ class ObjectGraph:
             for v in nodes
         )
 
+    def _grow_gate(self, v: Node, o: Observation) -> None:
+        """Remember the widest spread this node's object has shown (from its best view).
+
+        An end-on view of a long table shows little of it and its centroid sits ~0.6 m off
+        the middle; the node, having seen the table side-on, knows it is big and accepts
+        that view instead of starting a second table.
+        """
+        slot = self._slot_of.get(v.id)
+        if slot is not None and self._node_gates:
+            self._gate_slot[slot] = max(self._gate_slot[slot], self.gate(o))
+
     def _refresh(self, v: Node, o: Observation, session: int, stamp: float) -> Event | None:
+        self._grow_gate(v, o)
         w = self.params.position_smoothing
         first_in_session = v.last_session != session
         self._relocate(v, (1.0 - w) * v.position + w * o.position)
@@ -527,6 +542,7 @@ class ObjectGraph:
         node = Node(self.next_id, o.category, o.position.copy(), float(o.confidence), session, session)
         self.next_id += 1
         self._insert(node)
+        self._grow_gate(node, o)
         self._changed[node.id] = node
         return self._event("added", node, session, stamp)
 
@@ -556,10 +572,12 @@ class ObjectGraph:
             if self._used == len(self._pos):
                 self._pos = np.concatenate([self._pos, np.zeros_like(self._pos)])
                 self._slot_id = np.concatenate([self._slot_id, np.full(len(self._slot_id), -1, np.int64)])
+                self._gate_slot = np.concatenate([self._gate_slot, np.zeros(len(self._gate_slot))])
             slot = self._used
             self._used += 1
         self._pos[slot] = node.position * self._scale
         self._slot_id[slot] = node.id
+        self._gate_slot[slot] = 0.0
         self._slot_of[node.id] = slot
         self.nodes[node.id] = node
         kx, ky = self._key(node.position[0], node.position[1])
@@ -617,7 +635,8 @@ class ObjectGraph:
         counts: list[int] = []
         gathered: list[np.ndarray] = []
         for o in queries:
-            slots = self._cat_candidates(o.category, o.position, self.gate(o))
+            reach = self.params.extent_gate * self.threshold(o.category) if self._node_gates else self.gate(o)
+            slots = self._cat_candidates(o.category, o.position, max(reach, self.gate(o)))
             counts.append(len(slots))
             gathered.append(slots)
         if not queries or sum(counts) == 0:
@@ -625,10 +644,12 @@ class ObjectGraph:
         slots = np.concatenate(gathered)
         owner = np.repeat(np.arange(len(queries)), counts)
         qpos = np.array([o.position for o in queries]) * self._scale
-        radius = np.array([self.gate(o) for o in queries])
+        radius = np.array([self.gate(o) for o in queries])[owner]
+        if self._node_gates:  # a big object's node carries its own, wider gate (robust mode)
+            radius = np.maximum(radius, self._gate_slot[slots])
         d = self._pos[slots] - qpos[owner]
         d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
-        keep = d2 <= (radius * radius)[owner]
+        keep = d2 <= radius * radius
         bounds = np.concatenate([[0], np.cumsum(counts)])
         out = []
         for j in range(len(queries)):

@@ -151,11 +151,6 @@ def run_build(world_path: str | Path, site_dir: str | Path, *, seed: int = 0, ma
     return result
 
 
-def ensure(condition: bool, message: str, file=None, field_name=None) -> None:
-    if not condition:
-        raise BomcError(message, file, field_name)
-
-
 # -- monitor -------------------------------------------------------------------------------
 def make_perception(config: Config, seed: int, base_dir: Path):
     """The detector and segmenter named by ``perception.backend``."""
