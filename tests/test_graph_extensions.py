@@ -71,3 +71,16 @@ def test_height_counts_half_in_robust_mode():
     assert g.associate([obs("person", 2.1, 3.0, z=0.5)], [0], 1, 0.0)[0].kind == "updated"
     paper = ObjectGraph(AssociationParams(mode="paper"), [node(0, "person", 2.0, 3.0, z=1.2)])
     assert [e.kind for e in paper.associate([obs("person", 2.1, 3.0, z=0.5)], [], 1, 0.0)] == ["added"]
+
+
+def test_a_node_remembers_how_big_its_object_is():
+    # seen side-on (wide spread), then end-on from 0.95 m away with a narrow spread
+    g = ObjectGraph(AssociationParams(confirm_detections=1))
+    g.associate([obs("table", 0.0, 0.0, extent=0.6)], [], 1, 0.0)
+    events = g.associate([obs("table", 0.95, 0.0, extent=0.1)], [], 1, 1.0)
+    assert len(g.nodes) == 1 and [e.kind for e in events] != ["added"]
+    # a small object does not earn a wider gate
+    small = ObjectGraph(AssociationParams(confirm_detections=1))
+    small.associate([obs("cup", 0.0, 0.0, extent=0.05)], [], 1, 0.0)
+    small.associate([obs("cup", 0.95, 0.0, extent=0.05)], [], 1, 1.0)
+    assert len(small.nodes) == 2
