@@ -74,13 +74,13 @@ def test_height_counts_half_in_robust_mode():
 
 
 def test_a_node_remembers_how_big_its_object_is():
-    # seen side-on (wide spread), then end-on from 0.95 m away with a narrow spread
+    # seen side-on (spread 0.6 m: gate 0.9 m), then end-on 0.85 m away with a narrow spread
     g = ObjectGraph(AssociationParams(confirm_detections=1))
     g.associate([obs("table", 0.0, 0.0, extent=0.6)], [], 1, 0.0)
-    events = g.associate([obs("table", 0.95, 0.0, extent=0.1)], [], 1, 1.0)
+    events = g.associate([obs("table", 0.85, 0.0, extent=0.1)], [], 1, 1.0)
     assert len(g.nodes) == 1 and [e.kind for e in events] != ["added"]
     # a small object does not earn a wider gate
     small = ObjectGraph(AssociationParams(confirm_detections=1))
     small.associate([obs("cup", 0.0, 0.0, extent=0.05)], [], 1, 0.0)
-    small.associate([obs("cup", 0.95, 0.0, extent=0.05)], [], 1, 1.0)
+    small.associate([obs("cup", 0.85, 0.0, extent=0.05)], [], 1, 1.0)
     assert len(small.nodes) == 2
