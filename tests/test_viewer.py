@@ -29,6 +29,7 @@ from bomc_bt.errors import BomcError
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
 from bomc_bt.grid import OccupancyGrid, save_map
+from bomc_bt.mission import Progress
 from bomc_bt.site import write_json
 from bomc_bt.store import SiteStore
 from bomc_bt.tree.runner import TreeRunner
@@ -84,17 +85,6 @@ class CorridorRobot:
             self._grid = OccupancyGrid(data, RES, ORIGIN)
             self._revealed = metre
         return self._grid
-
-
-@dataclass
-class Progress:
-    explored_area: float = 0.0
-    path_length: float = 0.0
-    waypoint: int = 0
-    waypoints: int = 0
-    frames: int = 0
-    nodes: int = 0
-    message: str = ""
 
 
 @dataclass
