@@ -144,21 +144,14 @@ def _dispatch(args) -> int:
                                    context_hooks=hooks)
         finally:
             _close(server)
-        s = result.summary
-        print(f"build {s['outcome']}: {s['termination']} ({s['reason']}); explored {s['explored_area_m2']} m², "
-              f"path {s['path_length_m']} m, {s['sim_time_s']} s simulated; map in {Path(args.site) / 'map.yaml'}")
-        return 0 if result.succeeded else 1
+        return _report_build(result, args.site)
     if args.command == "monitor":
         try:
             result = run.run_monitor(args.world, args.site, args.session, seed=args.seed, tree=args.tree,
                                      config=config, resume=args.resume, quiet=args.quiet, context_hooks=hooks)
         finally:
             _close(server)
-        s = result.summary
-        print(f"session {args.session} {s['outcome']}: {s['nodes']} nodes, events {s['events']}, "
-              f"coverage {s['coverage']['fraction']:.0%}, waypoints missed {s['traversal'].get('missed', 0)}, "
-              f"{s['sim_time_s']} s simulated")
-        return 0 if result.succeeded else 1
+        return _report_monitor(result, args.session)
     if args.command == "evaluate":
         from bomc_bt.evaluate_site import evaluate_session, format_result
         from bomc_bt.evaluation import to_json
@@ -187,19 +180,29 @@ def _dispatch_ros(args) -> int:
                                    tree=args.tree, quiet=args.quiet, context_hooks=hooks)
         finally:
             _close(server)
-        s = result.summary
-        print(f"build {s['outcome']}: {s['termination']} ({s['reason']}); explored {s['explored_area_m2']} m², "
-              f"path {s['path_length_m']} m, {s['sim_time_s']} s; map in {Path(args.site) / 'map.yaml'}")
-        return 0 if result.succeeded else 1
+        return _report_build(result, args.site)
     try:
         result = run_monitor_ros(args.site, args.session, config, seed=args.seed, tree=args.tree,
                                  resume=args.resume, quiet=args.quiet, context_hooks=hooks)
     finally:
         _close(server)
+    return _report_monitor(result, args.session)
+
+
+def _report_build(result, site: str) -> int:
+    """One summary line of a build (simulator or ROS) and its exit code."""
     s = result.summary
-    print(f"session {args.session} {s['outcome']}: {s['nodes']} nodes, events {s['events']}, "
+    print(f"build {s['outcome']}: {s['termination']} ({s['reason']}); explored {s['explored_area_m2']} m², "
+          f"path {s['path_length_m']} m, {s['sim_time_s']} s robot time; map in {Path(site) / 'map.yaml'}")
+    return 0 if result.succeeded else 1
+
+
+def _report_monitor(result, session: int) -> int:
+    """One summary line of a monitor pass (simulator or ROS) and its exit code."""
+    s = result.summary
+    print(f"session {session} {s['outcome']}: {s['nodes']} nodes, events {s['events']}, "
           f"coverage {s['coverage']['fraction']:.0%}, waypoints missed {s['traversal'].get('missed', 0)}, "
-          f"{s['sim_time_s']} s")
+          f"detoured {s['traversal'].get('detoured', 0)}, {s['sim_time_s']} s robot time")
     return 0 if result.succeeded else 1
 
 

@@ -443,12 +443,7 @@ class ObjectGraph:
         first_in_session = v.last_session != session
         self._relocate(v, (1.0 - w) * v.position + w * o.position)
         v.confidence = max(v.confidence, float(o.confidence))
-        v.last_session = session
-        v.observations += 1
-        v.misses = 0
-        self._pending.discard(v.id)
-        self._last_miss.pop(v.id, None)
-        self._changed[v.id] = v
+        self._seen(v, session)
         reported = self._reported.get(v.id)
         drift = math.inf if reported is None else float(np.linalg.norm(v.position - reported))
         if first_in_session or drift > self.params.report_distance:
@@ -489,13 +484,17 @@ class ObjectGraph:
         else:
             self._relocate(v, o.position.copy())
         v.confidence = float(o.confidence)
+        self._seen(v, session)
+        return self._event("moved", v, session, stamp, previous)
+
+    def _seen(self, v: Node, session: int) -> None:
+        """Bookkeeping of a node an observation just confirmed: no removal pending."""
         v.last_session = session
         v.observations += 1
         v.misses = 0
         self._pending.discard(v.id)
         self._last_miss.pop(v.id, None)
         self._changed[v.id] = v
-        return self._event("moved", v, session, stamp, previous)
 
     # --------------------------------------------------------- shared mutations
     def _confirmed(self, o: Observation, stamp: float) -> bool:

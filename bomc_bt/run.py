@@ -39,12 +39,9 @@ def default_tree(name: str) -> Path:
     return resource_dir("trees") / f"{name}.yaml"
 
 
-def build_config(config_files: list[str] = (), overrides: dict | None = None, robot: str = "sim") -> Config:
-    config = load_config(list(config_files), robot=robot)
-    for dotted, value in (overrides or {}).items():
-        section, key = dotted.split(".", 1)
-        setattr(getattr(config, section), key, value)
-    return config
+def build_config(config_files: list[str] = (), robot: str = "sim") -> Config:
+    """The validated configuration: defaults, the robot's file, then ``config_files``."""
+    return load_config(list(config_files), robot=robot)
 
 
 def progress_line(ctx: MissionContext) -> str:
