@@ -20,6 +20,7 @@ from bomc_bt.site import write_json
 from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
+from bomc_bt.viewpoints import GapParams, gap_viewpoints
 
 
 def progress_key(ctx) -> str:
@@ -82,6 +83,30 @@ class NextWaypoint(Leaf):
         retry = " (retry)" if i in state.retried else ""
         self.feedback_message = f"waypoint {i + 1}/{len(state.states)}{retry}"
         return Status.SUCCESS
+
+
+@register("PlanGapViewpoints")
+class PlanGapViewpoints(Leaf):
+    """After the last waypoint: adds viewpoints that see the floor the camera has not seen.
+
+    Fails when they were planned already this pass or nothing is worth a look, which ends
+    the traversal (see :mod:`bomc_bt.viewpoints`).
+    """
+
+    Params = GapParams
+
+    def update(self) -> Status:
+        ctx = self.context
+        state = ctx.traverse
+        if state.gaps_from is not None or ctx.perception is None:
+            self.feedback_message = "gaps already covered" if state.gaps_from is not None else "no perception"
+            return Status.FAILURE
+        views = gap_viewpoints(ctx.robot.live_map(), ctx.perception.coverage.seen, ctx.robot.pose(), self.params)
+        state.add_gap_viewpoints(views)
+        ctx.store.set_progress(progress_key(ctx), {**state.to_json(), "plan": ctx.plan.to_json()})
+        ctx.progress.waypoints = len(state.states)
+        self.feedback_message = f"{len(views)} gap viewpoints"
+        return Status.SUCCESS if views else Status.FAILURE
 
 
 @dataclass

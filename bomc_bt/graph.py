@@ -83,9 +83,12 @@ class Node:
     state: str = PRESENT  # "present" | "removed" (removed nodes live on in the store's history)
     observations: int = 1  # times matched
     misses: int = 0  # consecutive expected-but-unseen frames (robust mode)
+    # robust: floor-plane box (xmin, ymin, xmax, ymax) the object's points have covered, None unknown
+    footprint: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.position = np.asarray(self.position, dtype=float).reshape(3)
+        self.footprint = _box_or_none(self.footprint)
 
 
 @dataclass
@@ -97,9 +100,12 @@ class Observation:
     confidence: float
     n_points: int = 0
     extent: float = 0.0  # horizontal spread (m) of the object's points about the centroid
+    box: np.ndarray | None = None  # floor-plane box (xmin, ymin, xmax, ymax) of those points
+    truncated: bool = False  # cut by the image border or an occluder: part of the object is missing
 
     def __post_init__(self) -> None:
         self.position = np.asarray(self.position, dtype=float).reshape(3)
+        self.box = _box_or_none(self.box)
 
 
 @dataclass
@@ -132,6 +138,10 @@ class AssociationParams:
     extent_gate: float = 2.0  # robust: a big object's own spread widens its gate, up to this times delta
     confirm_detections: int = 2  # robust: frames (confirm_interval apart) that must see a new object
     tentative_ttl: float = 10.0  # robust: s a first sighting waits for its confirmation
+    footprint_overlap: float = 0.5  # robust: box overlap (of the smaller box) that makes the same object; 0: off
+    # robust: m between a truncated view's box and a big object's footprint that still touch
+    # (about the width of what hides the rest: a chair in front of a table)
+    footprint_touch: float = 0.5
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -153,6 +163,10 @@ class AssociationParams:
             raise ValueError("vertical_weight must be in [0, 1]")
         if not 0.0 < self.position_smoothing <= 1.0:
             raise ValueError("position_smoothing must be in (0, 1]")
+        if not 0.0 <= self.footprint_overlap <= 1.0:
+            raise ValueError("footprint_overlap must be in [0, 1] (0 turns it off)")
+        if self.footprint_touch < 0:
+            raise ValueError("footprint_touch must be >= 0")
 
 
 def points_in_polygon(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
@@ -193,6 +207,9 @@ class ObjectGraph:
         # robust: per slot, the gate its node's own size earns (0: delta_c), see _grow_gate
         self._gate_slot = np.zeros(1024)
         self._node_gates = params.mode == "robust"
+        # robust: per slot, the node's footprint box (NaN: unknown), see _grow_extent
+        self._box_slot = np.full((1024, 4), np.nan)
+        self._boxes = params.mode == "robust" and params.footprint_overlap > 0.0
         self._slot_of: dict[int, int] = {}
         self._free: list[int] = []
         self._used = 0  # high-water mark of slots
@@ -346,6 +363,8 @@ class ObjectGraph:
         for j, o in enumerate(obs):
             if j in matched_obs or len(near[j][0]) or self._near_any(o, placed):
                 continue  # matched, or absorbed: a closer observation already matched that node
+            if o.truncated and self._touches_footprint(o):
+                continue  # a part of a known object, cut off by an occluder (see _touches_footprint)
             if not self._confirmed(o, stamp):
                 continue
             moved = self._move_candidate(o)
@@ -358,15 +377,17 @@ class ObjectGraph:
     def _merge_hidden_duplicates(self, pairs: list[tuple[float, int, int]], matched: set[int], hidden: set[int],
                                  obs: Sequence[Observation], session: int, stamp: float) -> list[Event]:
         """Fold into the matched node any same-category node that the same observation also
-        covers but that could not be checked: unmatched and not expected.
+        covers: unmatched and either hidden (in view, not expected) or lying on the floor
+        area the observation's own points cover.
 
         Two views of a big object from opposite sides can leave two nodes a little over
         delta_c apart; as their running averages converge, the second ends up *inside* the
         object, where the depth image hides it, so it is never expected and never missed.
-        An observation that covers both settles it: the node seen more often keeps its id
-        (position averaged by observations), the other is removed. A node that was
-        expected but unmatched is not touched: it may be a second object, and the miss
-        count decides.
+        Likewise a sliver of a table seen past an obstacle can start a node at one end of
+        a table whose node sits at the other. An observation that covers both settles it:
+        the node seen more often keeps its id (position averaged by observations), the
+        other is removed. A node that was expected but unmatched and lies elsewhere is not
+        touched: it may be a second object, and the miss count decides.
         """
         events: list[Event] = []
         best: dict[int, int] = {}
@@ -374,17 +395,19 @@ class ObjectGraph:
             if vid in matched and j not in best.values() and vid not in best:
                 best[vid] = j
         for vid, j in best.items():
-            for other, _ in self.within(obs[j].category, obs[j].position, self.gate(obs[j])):
-                v = self.nodes.get(vid)
-                if v is None or other.id == vid or other.id in matched or other.id not in hidden:
-                    continue
-                if other.id not in self.nodes:
+            covered = set(self._box_overlaps(obs[j]))
+            covered |= {v.id for v, _ in self.within(obs[j].category, obs[j].position, self.gate(obs[j]))
+                        if v.id in hidden}
+            for oid in sorted(covered):
+                v, other = self.nodes.get(vid), self.nodes.get(oid)
+                if v is None or other is None or oid == vid or oid in matched:
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
                 self._relocate(keep, (keep.position * keep.observations + drop.position * drop.observations) / total)
                 keep.observations += drop.observations
                 keep.confidence = max(keep.confidence, drop.confidence)
+                self._set_footprint(keep, _union(keep.footprint, drop.footprint))
                 self._changed[keep.id] = keep
                 events.append(self._remove(drop, session, stamp))
                 del self._removed_now[drop.id]  # merged, not gone: never "moved" back
@@ -426,22 +449,79 @@ class ObjectGraph:
             for v in nodes
         )
 
-    def _grow_gate(self, v: Node, o: Observation) -> None:
-        """Remember the widest spread this node's object has shown (from its best view).
+    def _is_big(self, v: Node) -> bool:
+        """Whether the node's footprint is longer than delta_c on a side: a table, not a cup."""
+        fp = v.footprint
+        return self._boxes and fp is not None and max(fp[2] - fp[0], fp[3] - fp[1]) > self.threshold(v.category)
+
+    def _grow_extent(self, v: Node, o: Observation, restart: bool = False) -> None:
+        """Remember how big this node's object has shown itself: its widest spread (the
+        gate) and the floor area its points covered (the footprint, union of boxes).
 
         An end-on view of a long table shows little of it and its centroid sits ~0.6 m off
         the middle; the node, having seen the table side-on, knows it is big and accepts
-        that view instead of starting a second table.
+        that view instead of starting a second table. The footprint goes further: any view
+        whose points lie mostly on floor the node's object already covered is that object,
+        however far its centroid is from the node's. ``restart`` (the first match of a
+        session) starts the footprint over from this view: an object nudged between visits
+        must not keep the floor it stood on last time.
         """
         slot = self._slot_of.get(v.id)
         if slot is not None and self._node_gates:
             self._gate_slot[slot] = max(self._gate_slot[slot], self.gate(o))
+        if self._boxes and o.box is not None:
+            self._set_footprint(v, o.box.copy() if restart else _union(v.footprint, o.box))
+
+    def _touches_footprint(self, o: Observation) -> bool:
+        """Whether a truncated view lies against a same-category node's footprint.
+
+        A table behind chairs may only ever show its two ends, from two sides: views whose
+        boxes are a chair's width apart. That is also what two tables side by side look
+        like, but the second table, seen whole, is a view that is not truncated; a view
+        that is cut off by an occluder near a big known object's edge is taken to be more
+        of that object, not a new one (at worst a second object is added later, when seen
+        whole). Only big objects (a footprint side longer than delta_c) count: small ones
+        are seen whole often enough, and chairs around a table are a chair's width apart.
+        """
+        if not self._boxes or o.box is None:
+            return False
+        touch = self.params.footprint_touch
+        grown = o.box + np.array([-touch, -touch, touch, touch])
+        reach = max(self.params.extent_gate * self.threshold(o.category), _half_diagonal(grown))
+        slots = self._cat_candidates(o.category, o.position * self._scale, reach)
+        if len(slots) == 0:
+            return False
+        boxes = self._box_slot[slots]
+        with np.errstate(invalid="ignore"):
+            big = np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) > self.threshold(o.category)
+        return bool((big & _overlapping(boxes, grown, 1e-9)).any())
+
+    def _set_footprint(self, v: Node, box: np.ndarray | None) -> None:
+        v.footprint = box
+        slot = self._slot_of.get(v.id)
+        if slot is not None:
+            self._box_slot[slot] = np.nan if box is None else box
+
+    def _box_overlaps(self, o: Observation) -> list[int]:
+        """Ids of same-category nodes whose footprint shares ``footprint_overlap`` of the
+        smaller of the two boxes with the observation's box."""
+        if not self._boxes or o.box is None:
+            return []
+        reach = max(self.params.extent_gate * self.threshold(o.category), _half_diagonal(o.box))
+        slots = self._cat_candidates(o.category, o.position * self._scale, reach)
+        if len(slots) == 0:
+            return []
+        hit = _overlapping(self._box_slot[slots], o.box, self.params.footprint_overlap)
+        return sorted(int(i) for i in self._slot_id[slots[hit]])
 
     def _refresh(self, v: Node, o: Observation, session: int, stamp: float) -> Event | None:
-        self._grow_gate(v, o)
         w = self.params.position_smoothing
         first_in_session = v.last_session != session
-        self._relocate(v, (1.0 - w) * v.position + w * o.position)
+        self._grow_extent(v, o, restart=first_in_session)
+        target = (1.0 - w) * v.position + w * o.position
+        if self._is_big(v):  # the middle of the floor it covers, not of its visible faces
+            target[:2] = (v.footprint[:2] + v.footprint[2:]) / 2.0
+        self._relocate(v, target)
         v.confidence = max(v.confidence, float(o.confidence))
         self._seen(v, session)
         reported = self._reported.get(v.id)
@@ -483,6 +563,8 @@ class ObjectGraph:
             self._insert(v)
         else:
             self._relocate(v, o.position.copy())
+        if self._boxes:  # where it stood before says nothing about its size here
+            self._set_footprint(v, o.box)
         v.confidence = float(o.confidence)
         self._seen(v, session)
         return self._event("moved", v, session, stamp, previous)
@@ -541,7 +623,7 @@ class ObjectGraph:
         node = Node(self.next_id, o.category, o.position.copy(), float(o.confidence), session, session)
         self.next_id += 1
         self._insert(node)
-        self._grow_gate(node, o)
+        self._grow_extent(node, o)
         self._changed[node.id] = node
         return self._event("added", node, session, stamp)
 
@@ -572,11 +654,13 @@ class ObjectGraph:
                 self._pos = np.concatenate([self._pos, np.zeros_like(self._pos)])
                 self._slot_id = np.concatenate([self._slot_id, np.full(len(self._slot_id), -1, np.int64)])
                 self._gate_slot = np.concatenate([self._gate_slot, np.zeros(len(self._gate_slot))])
+                self._box_slot = np.concatenate([self._box_slot, np.full_like(self._box_slot, np.nan)])
             slot = self._used
             self._used += 1
         self._pos[slot] = node.position * self._scale
         self._slot_id[slot] = node.id
         self._gate_slot[slot] = 0.0
+        self._box_slot[slot] = np.nan if node.footprint is None or not self._boxes else node.footprint
         self._slot_of[node.id] = slot
         self.nodes[node.id] = node
         kx, ky = self._key(node.position[0], node.position[1])
@@ -635,7 +719,9 @@ class ObjectGraph:
         gathered: list[np.ndarray] = []
         for o in queries:
             reach = self.params.extent_gate * self.threshold(o.category) if self._node_gates else self.gate(o)
-            slots = self._cat_candidates(o.category, o.position, max(reach, self.gate(o)))
+            if self._boxes and o.box is not None:
+                reach = max(reach, _half_diagonal(o.box))
+            slots = self._cat_candidates(o.category, o.position * self._scale, max(reach, self.gate(o)))
             counts.append(len(slots))
             gathered.append(slots)
         if not queries or sum(counts) == 0:
@@ -649,6 +735,9 @@ class ObjectGraph:
         d = self._pos[slots] - qpos[owner]
         d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
         keep = d2 <= radius * radius
+        if self._boxes:  # or the view lies on floor the node's object has covered (robust mode)
+            boxes = np.array([np.full(4, np.nan) if o.box is None else o.box for o in queries])[owner]
+            keep |= _overlapping(self._box_slot[slots], boxes, self.params.footprint_overlap)
         bounds = np.concatenate([[0], np.cumsum(counts)])
         out = []
         for j in range(len(queries)):
@@ -697,6 +786,38 @@ class ObjectGraph:
                     if members:
                         out.extend(members)
         return np.array(out, dtype=np.int64)
+
+
+def _box_or_none(box) -> np.ndarray | None:
+    if box is None:
+        return None
+    b = np.asarray(box, dtype=float).reshape(4)
+    return b if np.isfinite(b).all() and b[2] >= b[0] and b[3] >= b[1] else None
+
+
+def _union(a: np.ndarray | None, b: np.ndarray | None) -> np.ndarray | None:
+    if a is None or b is None:
+        return b if a is None else a
+    return np.array([min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])])
+
+
+def _half_diagonal(box: np.ndarray) -> float:
+    return 0.5 * math.hypot(box[2] - box[0], box[3] - box[1])
+
+
+def _overlapping(boxes: np.ndarray, box: np.ndarray, fraction: float) -> np.ndarray:
+    """Which of ``boxes`` (K, 4) share at least ``fraction`` of the smaller box's area with
+    ``box`` ((4,) or (K, 4)); NaN boxes never do. Degenerate (zero-area) boxes count by
+    their larger side, so a thin sliver still overlaps what it lies on."""
+    b = np.broadcast_to(box, boxes.shape)
+    w = np.minimum(boxes[:, 2], b[:, 2]) - np.maximum(boxes[:, 0], b[:, 0])
+    h = np.minimum(boxes[:, 3], b[:, 3]) - np.maximum(boxes[:, 1], b[:, 1])
+    pad = 0.05  # m: points are samples of a surface, not its outline
+    with np.errstate(invalid="ignore"):
+        inter = np.clip(w + pad, 0.0, None) * np.clip(h + pad, 0.0, None)
+        area_a = (boxes[:, 2] - boxes[:, 0] + pad) * (boxes[:, 3] - boxes[:, 1] + pad)
+        area_b = (b[:, 2] - b[:, 0] + pad) * (b[:, 3] - b[:, 1] + pad)
+        return (w > -pad) & (h > -pad) & (inter >= fraction * np.minimum(area_a, area_b))
 
 
 def _dist2(points: np.ndarray, p: np.ndarray) -> np.ndarray:

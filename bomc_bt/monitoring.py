@@ -37,6 +37,13 @@ class TraversalState:
     index: int = 0  # next position in the plan's order
     retried: list[int] = field(default_factory=list)  # missed waypoints already tried again
     current: int | None = None
+    gaps_from: int | None = None  # index of the first gap viewpoint, once they were planned
+
+    def add_gap_viewpoints(self, viewpoints: list[Pose2D]) -> None:
+        """Append the viewpoints planned after the last waypoint (once per pass)."""
+        self.gaps_from = len(self.states)
+        self.plan.waypoints.extend(viewpoints)
+        self.states.extend([PENDING] * len(viewpoints))
 
     def __post_init__(self) -> None:
         if not self.states:
@@ -72,16 +79,19 @@ class TraversalState:
         counts = {s: self.states.count(s) for s in (VISITED, DETOURED, MISSED, PENDING)}
         missed = [{"index": i, "x": round(self.waypoint(i).x, 2), "y": round(self.waypoint(i).y, 2)}
                   for i, s in enumerate(self.states) if s == MISSED]
-        return {"waypoints": len(self.states), **counts, "missed_waypoints": missed}
+        gaps = 0 if self.gaps_from is None else len(self.states) - self.gaps_from
+        return {"waypoints": len(self.states), **counts, "missed_waypoints": missed, "gap_viewpoints": gaps}
 
     def to_json(self) -> dict[str, Any]:
-        return {"states": self.states, "index": self.index, "retried": self.retried}
+        return {"states": self.states, "index": self.index, "retried": self.retried, "gaps_from": self.gaps_from}
 
     def restore(self, data: dict[str, Any]) -> None:
         if len(data.get("states", [])) == len(self.states):
             self.states = list(data["states"])
             self.index = int(data["index"])
             self.retried = list(data.get("retried", []))
+            gaps = data.get("gaps_from")
+            self.gaps_from = int(gaps) if isinstance(gaps, int) and 0 <= gaps <= len(self.states) else None
 
 
 def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: float, count: int,

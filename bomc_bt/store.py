@@ -7,10 +7,13 @@ WAL journaling keeps readers (``bomc evaluate``, a viewer) off the writer's back
 
 Tables:
 
-* ``schema_version`` -- one row; a file with another version or without our tables is
-  refused with a :class:`BomcError` instead of being silently "upgraded".
+* ``schema_version`` -- one row; a file with an unknown version or without our tables is
+  refused with a :class:`BomcError` instead of being guessed at. Version 1 stores (before
+  node footprints) are upgraded in place by adding the empty footprint columns, in one
+  transaction: nothing in them changes meaning.
 * ``nodes`` -- the current state of every id ever issued (removed ones with state
-  ``removed``), so the next id continues from the max id ever issued.
+  ``removed``), so the next id continues from the max id ever issued; with the floor
+  footprint the association learned for it (NULL when unknown).
 * ``node_history`` -- every event, append-only; :meth:`SiteStore.graph_after` rebuilds
   the graph as it stood at the end of any session from it. Nothing is overwritten.
 * ``sessions`` -- one row per monitor pass: started/ended robot time and wall time (the
@@ -39,7 +42,8 @@ import numpy as np
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+_FOOTPRINT = ("fx0", "fy0", "fx1", "fy1")
 FILENAME = "site.db"
 
 _SCHEMA = """
@@ -47,7 +51,8 @@ CREATE TABLE schema_version (version INTEGER NOT NULL);
 CREATE TABLE nodes (
     id INTEGER PRIMARY KEY, category TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL,
     confidence REAL NOT NULL, first_session INTEGER NOT NULL, last_session INTEGER NOT NULL,
-    state TEXT NOT NULL, observations INTEGER NOT NULL, misses INTEGER NOT NULL);
+    state TEXT NOT NULL, observations INTEGER NOT NULL, misses INTEGER NOT NULL,
+    fx0 REAL, fy0 REAL, fx1 REAL, fy1 REAL);
 CREATE TABLE node_history (
     seq INTEGER PRIMARY KEY AUTOINCREMENT, id INTEGER NOT NULL, session INTEGER NOT NULL,
     stamp REAL NOT NULL, kind TEXT NOT NULL, category TEXT NOT NULL,
@@ -153,11 +158,24 @@ class SiteStore:
             missing = ", ".join(sorted(_TABLES - tables))
             raise BomcError(f"not a bomc site store (missing tables: {missing})", self.path)
         rows = self._db.execute("SELECT version FROM schema_version").fetchall()
+        if len(rows) == 1 and rows[0][0] == 1:
+            self._upgrade_from_1()
+            rows = [(SCHEMA_VERSION,)]
         if len(rows) != 1 or rows[0][0] != SCHEMA_VERSION:
             found = rows[0][0] if len(rows) == 1 else "none"
             raise BomcError(f"unsupported site store schema version {found} (expected {SCHEMA_VERSION})",
                             self.path, "schema_version")
         self._db.execute("PRAGMA journal_mode=WAL")
+
+    def _upgrade_from_1(self) -> None:
+        """Version 1 had no node footprints: add the columns (NULL = unknown), nothing else."""
+        script = "BEGIN IMMEDIATE;" + "".join(f"ALTER TABLE nodes ADD COLUMN {c} REAL;" for c in _FOOTPRINT)
+        try:
+            self._db.executescript(script + f"UPDATE schema_version SET version = {SCHEMA_VERSION};COMMIT;")
+        except BaseException:
+            if self._db.in_transaction:
+                self._db.execute("ROLLBACK")
+            raise
 
     def close(self) -> None:
         with self._lock:
@@ -264,10 +282,12 @@ class SiteStore:
                      *map(float, _xyz(e.position)), float(e.confidence), *prev),
                 )
             for n in nodes_changed:
+                box = (None,) * 4 if n.footprint is None else tuple(map(float, n.footprint))
                 db.execute(
-                    "INSERT OR REPLACE INTO nodes VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    "INSERT OR REPLACE INTO nodes VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (int(n.id), n.category, *map(float, _xyz(n.position)), float(n.confidence),
-                     int(n.first_session), int(n.last_session), n.state, int(n.observations), int(n.misses)),
+                     int(n.first_session), int(n.last_session), n.state, int(n.observations), int(n.misses),
+                     *box),
                 )
             for key, value in (progress or {}).items():
                 db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
@@ -287,8 +307,9 @@ class SiteStore:
 
     def _nodes(self, sql: str, args: tuple) -> list[Node]:
         return [
-            Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses)
-            for nid, cat, x, y, z, conf, first, last, state, obs, misses in self._query(sql, args)
+            Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses,
+                 None if None in box else np.array(box, dtype=float))
+            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box in self._query(sql, args)
         ]
 
     def graph_after(self, session: int) -> list[Node]:

@@ -20,6 +20,7 @@ from bomc_bt.perception.projection import (
     fov_polygon,
     in_polygon,
     robust_centroid,
+    truncated,
     visible,
 )
 from bomc_bt.robot import RGBDFrame
@@ -245,3 +246,34 @@ def test_visible_tells_seen_from_hidden():
     assert visible(empty, points[:1]).tolist() == [True]
     assert visible(empty, points[:1], max_depth=1.0).tolist() == [False]
     assert visible(empty, np.empty((0, 3))).shape == (0,)
+
+
+def test_truncated_tells_a_cut_off_view_from_a_whole_one():
+    depth = np.full((48, 64), 4.0, np.float32)  # a wall 4 m away
+    depth[20:30, 20:40] = 2.0  # the object, 2 m away, whole and in the open
+    whole = np.zeros(depth.shape, bool)
+    whole[20:30, 20:40] = True
+    assert not truncated(depth, whole, 2.0)
+    occluded = depth.copy()
+    occluded[18:32, 30:34] = 1.2  # a chair leg in front cuts it in two
+    left = whole.copy()
+    left[:, 30:] = False
+    assert truncated(occluded, left, 2.0)
+    at_edge = np.zeros(depth.shape, bool)
+    at_edge[20:30, 0:10] = True  # cut by the image border
+    assert truncated(depth, at_edge, 2.0)
+    nan = depth.copy()
+    nan[19, :] = np.nan  # no depth next to it is no evidence of an occluder
+    assert not truncated(nan, whole, 2.0)
+
+
+def test_observations_carry_their_floor_box_and_truncation():
+    table = WorldObject("t", "table", (3.0, 0.0, 0.375), (0.8, 1.2, 0.75), 0.0)
+    _, (o,) = perfect_observations(see([table], Pose2D(0.0, 0.0, 0.0)), ["table"])
+    x0, y0, x1, y1 = o.box
+    assert x0 <= o.position[0] <= x1 and y0 <= o.position[1] <= y1
+    assert 2.5 < x0 < 2.7 and 1.0 < y1 - y0 < 1.3  # from its near edge; its whole width
+    assert not o.truncated
+    chair = WorldObject("c", "chair", (2.0, 0.0, 0.45), (0.5, 0.5, 0.9), 0.0)  # in front of its middle
+    _, observations = perfect_observations(see([table, chair], Pose2D(0.0, 0.0, 0.0)), ["table"])
+    assert observations and all(o.truncated for o in observations)

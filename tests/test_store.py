@@ -7,8 +7,9 @@ import sqlite3
 import numpy as np
 import pytest
 
+from bomc_bt import store as store_module
 from bomc_bt.errors import BomcError
-from bomc_bt.graph import AssociationParams, Event, Observation
+from bomc_bt.graph import AssociationParams, Event, Node, Observation
 from bomc_bt.store import SiteStore
 
 # confirm_detections=1: these tests store single-frame additions (confirmation is tested in test_graph_extensions).
@@ -135,3 +136,27 @@ def test_locked_database_is_a_bomc_error(tmp_path):
     store.set_progress("k", 1)
     assert store.get_progress("k") == 1
     store.close()
+
+
+def test_node_footprints_persist_and_a_version_1_store_is_upgraded(tmp_path):
+    path = tmp_path / "site.db"
+    con = sqlite3.connect(path)  # a store as version 1 wrote it: no footprint columns
+    con.executescript(store_module._SCHEMA.replace(",\n    fx0 REAL, fy0 REAL, fx1 REAL, fy1 REAL", ""))
+    con.execute("INSERT INTO schema_version VALUES (1)")
+    con.execute("INSERT INTO nodes VALUES (3, 'chair', 1, 2, 0.4, 0.9, 1, 1, 'present', 4, 0)")
+    con.commit()
+    con.close()
+    with SiteStore(path) as store:
+        old = store.load_graph(AssociationParams())
+        assert set(old.nodes) == {3} and old.nodes[3].footprint is None and old.next_id == 4
+        table = Node(4, "table", np.array([5.0, 5.0, 0.6]), 0.9, 2, 2, footprint=np.array([4.4, 4.6, 5.6, 5.4]))
+        store.record([], [table])
+    with SiteStore(path) as store:
+        graph = store.load_graph(AssociationParams(confirm_detections=1))
+        assert np.allclose(graph.nodes[4].footprint, [4.4, 4.6, 5.6, 5.4])
+        # the next session's association uses it: a sliver of the table's end (0.5 m from
+        # the node, 0.9 m from where an end-on view would put it) is that table, not a new one
+        graph._relocate(graph.nodes[4], np.array([5.4, 5.0, 0.6]))
+        sliver = Observation("table", np.array([4.5, 5.0, 0.6]), 0.9, 400, 0.2, box=np.array([4.4, 4.7, 4.6, 5.3]))
+        events = graph.associate([sliver], [], 3, 1.0)
+        assert [e.kind for e in events] == ["updated"] and set(graph.nodes) == {3, 4}

@@ -50,6 +50,10 @@ class ProjectionParams:
     # table seen from two sides gives two centroids a metre apart; the footprint's middle
     # stays put as long as the top or two faces are in view.
     centre: Literal["mean", "footprint"] = "footprint"
+    # m: only objects this near give a floor box (Observation.box) that association trusts
+    # for footprints; depth noise grows with range^2, and a box from a far view is inflated
+    # along the ray by it (at 7 m a typical sensor's noise is ~0.25 m: a chair looks 1 m deep).
+    box_range: float = 4.0
 
     def __post_init__(self) -> None:
         if self.min_points < 1:
@@ -58,6 +62,8 @@ class ProjectionParams:
             raise ValueError("stride must be >= 1")
         if not self.max_depth > 0.0:
             raise ValueError("max_depth must be positive")
+        if self.box_range < 0.0:
+            raise ValueError("box_range must be >= 0 (0: no boxes)")
         if self.fov_columns < 2:
             raise ValueError("fov_columns must be >= 2")
 
@@ -118,6 +124,29 @@ def backproject(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, stride: int 
     x = (u - K[0, 2]) / K[0, 0] * z
     y = (v - K[1, 2]) / K[1, 1] * z
     return np.stack([x, y, z], axis=1)
+
+
+def truncated(depth: np.ndarray, mask: np.ndarray, object_depth: float, margin: float = 0.2,
+              ring: int = 2) -> bool:
+    """Whether only part of the object can be in the mask: it touches the image border, or
+    something nearer than the object (by ``margin`` m) borders it.
+
+    Such a view's centroid is biased towards the visible part, by up to half the object's
+    length; association must not take it for a second object next to the first.
+    """
+    bounds = _mask_bounds(mask)
+    if bounds is None:
+        return False
+    x, y, w, h = bounds
+    rows, cols = mask.shape
+    if x == 0 or y == 0 or x + w >= cols or y + h >= rows:
+        return True
+    r0, r1, c0, c1 = max(0, y - ring), min(rows, y + h + ring), max(0, x - ring), min(cols, x + w + ring)
+    m = np.ascontiguousarray(mask[r0:r1, c0:c1], dtype=np.uint8)
+    around = cv2.dilate(m, np.ones((2 * ring + 1, 2 * ring + 1), np.uint8)).astype(bool) & ~m.astype(bool)
+    with np.errstate(invalid="ignore"):
+        nearer = depth[r0:r1, c0:c1] < object_depth - margin  # NaN compares False
+    return bool((around & nearer).any())
 
 
 def _mask_bounds(mask: np.ndarray) -> tuple[int, int, int, int] | None:
@@ -205,11 +234,13 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         kept = cam[keep]
         centre = T[:3, :3] @ kept.mean(axis=0) + T[:3, 3]
         points = kept @ T[:3, :3].T + T[:3, 3]
+        lo, hi = np.percentile(points[:, :2], [1.0, 99.0], axis=0)  # the floor area it covers
         if params.centre == "footprint":
-            lo, hi = np.percentile(points[:, :2], [1.0, 99.0], axis=0)
             centre = np.array([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, centre[2]])
-        out.append(Observation(det.category, centre, float(det.score), len(cam),
-                               horizontal_extent(points, centre)))
+        distance = float(np.median(kept[:, 2]))
+        box = np.concatenate([lo, hi]) if distance <= params.box_range else None
+        out.append(Observation(det.category, centre, float(det.score), len(cam), horizontal_extent(points, centre),
+                               box=box, truncated=truncated(frame.depth, det.mask, distance)))
         stats.observations += 1
     return out
 
