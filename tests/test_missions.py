@@ -89,15 +89,18 @@ def test_perfect_detector_maps_every_session_of_lab_b_exactly(shared, tmp_path):
 
 
 def test_perfect_detector_on_office_s(shared, tmp_path, capsys):
-    """Not 1.0 here (the issue asks for it; see the closing note): a chair hidden behind a
-    table may never be in view, and the perfect preset also reports slivers of heavily
-    occluded objects whose centroids are poor. Measured 0.978 / 0.984 / 0.962 (seeded)."""
+    """Not 1.0 here (the issue asks for it; see the closing note). What is left is out of
+    the camera's reach: chair-4 stands in a room the build mapped only through a gap
+    narrower than the robot (no viewpoint inside, > 4.5 m from outside), and chair-10 is
+    removed at 300 s of session 3, after the pass has looked at it (scored at the pass's
+    end). Measured 0.992 / 0.992 / 0.984 (seeded); before node footprints and gap
+    viewpoints 0.978 / 0.984 / 0.962."""
     config = config_with(tmp_path, "detector: {preset: perfect}\n")
     world = shared / "worlds" / "office-s.yaml"
     scores = _monitor_sessions(world, tmp_path / "site", config)
     with capsys.disabled():
         print("\noffice-s perfect-detector F1 per session:", {n: round(f, 3) for n, f in scores.items()})
-    assert all(f1 >= 0.95 for f1 in scores.values()), scores
+    assert all(f1 >= 0.98 for f1 in scores.values()), scores
 
 
 def test_realistic_detector_keeps_f1_above_0_9_on_lab_b(shared, tmp_path):
