@@ -11,8 +11,12 @@ Time: the bridge owns ``/clock`` (it sets ``/use_sim_time``). In lockstep (the d
 it steps the simulator only up to the time the executive announces on the tick topic,
 after the goals, cancels and initial poses that announcement counts have arrived, so a
 run through ROS interleaves ticks and steps as the direct simulator run does, and runs
-as fast as both sides can. ``--realtime-factor F`` free-runs at F times real time instead
-(for RViz and teleoperation).
+as fast as both sides can. After each step it announces on ``ros.stepped_topic`` what it
+has published by then (the newest stamp per topic, the newest tf, the last move_base
+result): topics are not ordered with respect to each other or to ``/clock``, so without
+it a tick at time t may or may not see the map or tf of time t, and two runs differ.
+``--realtime-factor F`` free-runs at F times real time instead (for RViz and
+teleoperation) and announces nothing.
 """
 
 from __future__ import annotations
@@ -43,10 +47,12 @@ from bomc_bt.ros.convert import (
     pose2d_from_msg,
 )
 from bomc_bt.ros.params import RosParams
+from bomc_bt.ros.robot import check_master
 
 LOCALIZED_STD = (0.05, 0.03)  # m, rad: the covariance /amcl_pose reports once localized
 LOST_STD = (2.0, 1.5)  # ... and while not localized (after a failed or global request)
 COUNT_WAIT = 2.0  # wall s to wait for announced goals to arrive before stepping anyway
+IDLE_ANNOUNCE = 0.1  # wall s between re-announcements (clock, stepped) while waiting for a tick
 SIM_INSTANCES_TOPIC = "/bomc_sim/instances"  # the per-pixel instance image the sim detector reads
 
 
@@ -100,6 +106,9 @@ class SimBridge:
         self._map_version: Any = None
         self._grid_msg_cls = numpy_msg(GridMsg)
         self._srv_empty = EmptyResponse
+        self.sent: dict[str, int] = {}  # resolved topic -> stamp (ns) of the newest message on it
+        self.last: dict[str, Any] = {}  # pub key -> the newest message (re-sent on request)
+        self.last_tf: list[Any] = []
         self.pub = {
             "clock": rospy.Publisher("/clock", Clock, queue_size=10),
             "map": rospy.Publisher(params.map_topic, self._grid_msg_cls, queue_size=1, latch=True),
@@ -109,13 +118,15 @@ class SimBridge:
             "depth": rospy.Publisher(params.depth_topic, Image, queue_size=2),
             "info": rospy.Publisher(params.camera_info_topic, CameraInfo, queue_size=2),
         }
+        if lockstep:  # advertised only in lockstep: an executive that sees it waits for it
+            self.pub["stepped"] = rospy.Publisher(params.stepped, String, queue_size=10)
         if params.instances_topic:
             self.pub["instances"] = rospy.Publisher(params.instances_topic, Image, queue_size=2)
             self.pub["instances_info"] = rospy.Publisher(
                 params.instances_topic + "/info", String, queue_size=2
             )
         self.tf = tf2_ros.TransformBroadcaster()
-        self.server = actionlib.ActionServer(
+        self.server = _recording_server(actionlib.ActionServer)(
             params.move_base_action, MoveBaseAction, self._on_goal, self._on_cancel, auto_start=False
         )
         self.services = [
@@ -136,6 +147,7 @@ class SimBridge:
         if map_grid is not None:
             self._publish_map(map_grid)
         self.publish_all()
+        self.announce()
 
     # -- callbacks (rospy threads): they only queue; the stepping thread owns the simulator --
     # (acting in a callback would take actionlib's lock and then ours while the stepping
@@ -149,6 +161,8 @@ class SimBridge:
 
     def _on_tick(self, msg: Any) -> None:
         data = json.loads(msg.data)
+        if data.get("resend"):  # an executive that just connected missed what came before
+            self._queue("resend", None)
         with self.wake:
             self.until = max(self.until, float(data["until"]))
             for key in self.wanted:
@@ -204,6 +218,13 @@ class SimBridge:
         self.amcl_std = (math.sqrt(max(c[0, 0], 0.0)), math.sqrt(max(c[5, 5], 0.0)))
         self._publish_amcl()
 
+    def _apply_resend(self, _item: Any) -> None:
+        """Publish the newest message of every topic and tf again (then :meth:`announce`)."""
+        if self.last_tf:
+            self.tf.sendTransform(self.last_tf)
+        for key, msg in self.last.items():
+            self.pub[key].publish(msg)
+
     def _apply_global(self, _item: Any) -> None:
         self.reloc = self.sim.relocalize(None, global_search=True)
         self.amcl_std = LOST_STD
@@ -220,8 +241,9 @@ class SimBridge:
             if self.lockstep:
                 with self.wake:
                     while not rospy.is_shutdown() and self.until <= self.sim.now() + 1e-6 and not self.inbox:
-                        if not self.wake.wait(0.1):  # idle: re-announce the time for late joiners
+                        if not self.wake.wait(IDLE_ANNOUNCE):  # idle: re-announce for late joiners
                             self.pub["clock"].publish(Clock(clock=self.stamp()))
+                            self.announce()
                     deadline = time.monotonic() + COUNT_WAIT
                     while any(self.got[k] < self.wanted[k] for k in self.got) and time.monotonic() < deadline:
                         self.wake.wait(0.005)
@@ -229,6 +251,7 @@ class SimBridge:
                 self._drain()
                 while self.sim.now() < until - 1e-6:
                     self.step()
+                self.announce()
             else:
                 self._drain()
                 self.step()
@@ -265,6 +288,40 @@ class SimBridge:
     # -- publishing ---------------------------------------------------------------------------
     def stamp(self, t: float | None = None) -> Any:
         return self.rospy.Time.from_sec(self.sim.now() if t is None else t)
+
+    def _send(self, key: str, msg: Any, stamp: Any = None) -> None:
+        """Publish on ``self.pub[key]`` and remember the stamp, for :meth:`announce`."""
+        pub = self.pub[key]
+        pub.publish(msg)
+        self.last[key] = msg
+        self.sent[pub.resolved_name] = (stamp if stamp is not None else msg.header.stamp).to_nsec()
+
+    def announce(self) -> None:
+        """Lockstep only: tell the executive what it must have received to be at this time.
+
+        The executive waits for every topic it listens to to reach the stamp given here,
+        for tf at the newest stamp and for the last move_base result, so each tick sees
+        exactly what was published up to its time, as the direct simulator run does.
+        """
+        from std_msgs.msg import String
+
+        if not self.lockstep:
+            return
+        data = {
+            "until": self.sim.now(),  # the exact float: /clock's ns may be 1 ns short of it
+            "until_ns": self.stamp().to_nsec(),
+            "stamps": self.sent,
+            "tf": self._tf_announcement(),
+            "result": {self.server.result_pub.resolved_name: self.server.last_result},
+        }
+        self.pub["stepped"].publish(String(data=json.dumps(data)))
+
+    def _tf_announcement(self) -> list | None:
+        """[stamp (ns), [[parent, child], ...]] of the newest transforms sent, or None."""
+        if not self.last_tf:
+            return None
+        pairs = [[m.header.frame_id, m.child_frame_id] for m in self.last_tf]
+        return [self.last_tf[0].header.stamp.to_nsec(), pairs]
 
     def publish_all(self) -> None:
         from rosgraph_msgs.msg import Clock
@@ -309,6 +366,7 @@ class SimBridge:
         if self.T_base_camera is not None and self.publish_tf_camera:
             out.append(self._transform(p.base_frame, self.camera_frame, self.T_base_camera, t))
         self.tf.sendTransform(out)
+        self.last_tf = out
 
     @property
     def camera_frame(self) -> str:
@@ -320,7 +378,7 @@ class SimBridge:
         msg.header.stamp = self.stamp()
         msg.info.map_load_time = msg.header.stamp
         fill_grid(msg, grid)
-        self.pub["map"].publish(msg)
+        self._send("map", msg)
 
     def _publish_scan(self) -> None:
         from sensor_msgs.msg import LaserScan
@@ -336,7 +394,7 @@ class SimBridge:
         msg.angle_max = float(scan.angle_min + scan.angle_increment * (len(scan.ranges) - 1))
         msg.range_min, msg.range_max = 0.0, float(scan.range_max)
         msg.ranges = np.where(np.isfinite(scan.ranges), scan.ranges, np.inf).astype(float).tolist()
-        self.pub["scan"].publish(msg)
+        self._send("scan", msg)
 
     def _publish_amcl(self) -> None:
         from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -349,7 +407,7 @@ class SimBridge:
         msg.header.frame_id = self.p.map_frame
         fill_pose(msg.pose.pose, pose or self.sim.true_pose)
         msg.pose.covariance = covariance(*self.amcl_std)
-        self.pub["amcl"].publish(msg)
+        self._send("amcl", msg)
 
     def _publish_frame(self, frame: RGBDFrame) -> None:
         from sensor_msgs.msg import CameraInfo, Image
@@ -387,30 +445,40 @@ class SimBridge:
                 ],
             )
             info.header.stamp, info.header.frame_id = stamp, self.camera_frame
-            self.pub["info"].publish(info)
+            self._send("info", info)
         if "instances" in self.pub and frame.instances is not None:
-            self.pub["instances_info"].publish(
-                String(
-                    data=json.dumps(
-                        {
-                            "stamp": round(frame.stamp, 6),
-                            "categories": {str(k): v for k, v in frame.instance_categories.items()},
-                            "unoccluded": {str(k): int(v) for k, v in frame.instance_unoccluded.items()},
-                        }
-                    )
-                )
-            )
-            self.pub["instances"].publish(image("32SC1", frame.instances.astype("<i4").tobytes(), w * 4))
+            info_stamp = round(frame.stamp, 6)  # the executive keys instance data by this
+            data = {
+                "stamp": info_stamp,
+                "categories": {str(k): v for k, v in frame.instance_categories.items()},
+                "unoccluded": {str(k): int(v) for k, v in frame.instance_unoccluded.items()},
+            }
+            self._send("instances_info", String(data=json.dumps(data)), self.stamp(info_stamp))
+            self._send("instances", image("32SC1", frame.instances.astype("<i4").tobytes(), w * 4))
         depth, step = encode_depth(frame.depth, self.p.depth_encoding)
-        self.pub["depth"].publish(image(self.p.depth_encoding, depth, step))
+        self._send("depth", image(self.p.depth_encoding, depth, step))
         if frame.rgb is not None:
-            self.pub["rgb"].publish(image("rgb8", np.ascontiguousarray(frame.rgb, np.uint8).tobytes(), w * 3))
+            self._send("rgb", image("rgb8", np.ascontiguousarray(frame.rgb, np.uint8).tobytes(), w * 3))
 
     def close(self) -> None:
         for sub in self.subs:
             sub.unregister()
         for srv in self.services:
             srv.shutdown()
+
+
+def _recording_server(base: type) -> type:
+    """``actionlib.ActionServer`` (passed in: no ROS import at module level) that remembers
+    the goal id of the last result it published, for :meth:`SimBridge.announce`."""
+
+    class RecordingActionServer(base):
+        last_result = ""
+
+        def publish_result(self, status: Any, result: Any) -> None:
+            super().publish_result(status, result)
+            self.last_result = status.goal_id.id
+
+    return RecordingActionServer
 
 
 # -- command line -------------------------------------------------------------------------------
@@ -471,6 +539,7 @@ def build_bridge(args: argparse.Namespace) -> SimBridge:
     else:
         sim = SimRobot(world, session=1, params=config.sim, seed=args.seed, mode="build")
     rospy = import_ros()
+    check_master()  # init_node alone would retry an absent master for ever
     rospy.init_node("bomc_sim_bridge", disable_signals=False)
     rospy.set_param("/use_sim_time", True)
     return SimBridge(

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TextIO
 
 from bomc_bt.config import Config
-from bomc_bt.errors import BomcError
+from bomc_bt.errors import BomcError, MissionFailed
 from bomc_bt.geometry import Pose2D
 from bomc_bt.mission import MissionContext
 from bomc_bt.params import from_mapping
@@ -63,6 +63,21 @@ def _hooks(robot, ctx: MissionContext, params: RosParams, hooks: list[Callable])
 
         out.append(MissionPublisher(ctx, params))
     return out
+
+
+def _report_failure(robot, ctx: MissionContext, exc: MissionFailed) -> None:
+    """The robot could not go on (no camera_info, a dead /clock): stop it and write the report.
+
+    The simulator never fails this way, so :func:`bomc_bt.run.run_monitor` has no such
+    path; on a robot the report of what the pass saw before is what tells the operator
+    what happened. The session stays open in the store, as after Ctrl-C, so that
+    ``--resume`` can finish it once the robot is fixed.
+    """
+    from bomc_bt.report import write_session_report
+
+    robot.cancel_all()
+    ctx.outcome, ctx.reason = "failed", " ".join(str(exc).split())
+    write_session_report(ctx, close=False)
 
 
 def run_build_ros(
@@ -194,16 +209,20 @@ def run_monitor_ros(
             c.outcome = "interrupted"
             write_session_report(c, close=False)
 
-        result = run_tree(
-            ctx,
-            Path(tree) if tree else default_tree("monitor"),
-            quiet=quiet,
-            stream=stream,
-            max_time=max_time,
-            hooks=_hooks(robot, ctx, params, hooks),
-            context_hooks=context_hooks,
-            on_interrupt=interrupted,
-        )
+        try:
+            result = run_tree(
+                ctx,
+                Path(tree) if tree else default_tree("monitor"),
+                quiet=quiet,
+                stream=stream,
+                max_time=max_time,
+                hooks=_hooks(robot, ctx, params, hooks),
+                context_hooks=context_hooks,
+                on_interrupt=interrupted,
+            )
+        except MissionFailed as exc:
+            _report_failure(robot, ctx, exc)
+            raise
         result.summary = session_summary(ctx)
         result.summary["outcome"] = ctx.outcome or ("interrupted" if result.interrupted else "failed")
         return result

@@ -60,9 +60,19 @@ class RosParams:
     tree_topic: str = "/bomc/tree"
     events_topic: str = "/bomc/events"
     tick_topic: str = "/bomc/tick"  # the executive's "waiting for time t" (the bridge steps on it)
+    # The bridge's "stepped to t, having published this": in lockstep the executive waits for
+    # it so each tick sees exactly what was published up to its time. "" = <tick_topic>/done.
+    stepped_topic: str = ""
     # -- the sim-over-ROS bridge -------------------------------------------------------------
     depth_encoding: Literal["32FC1", "16UC1"] = "32FC1"
-    map_period: float = 1.0  # s of sim time between /map publications while building
+    # s of sim time between /map publications while building; 0 = on every mapper update,
+    # as the direct simulator's explorer sees the map (GMapping itself throttles to ~5 s).
+    map_period: float = 0.0
+
+    @property
+    def stepped(self) -> str:
+        """The lockstep acknowledgement topic (derived from ``tick_topic`` unless set)."""
+        return self.stepped_topic or self.tick_topic.rstrip("/") + "/done"
 
     def __post_init__(self) -> None:
         positive = (

@@ -14,8 +14,12 @@ them, so no call blocks a tick. Long work is a handle polled by the tree:
 
 Time is ROS time; with ``use_sim_time`` (the sim-over-ROS bridge) the executive publishes
 the time it waits for on ``tick_topic`` so the bridge can step its simulator in lockstep.
-Wall time is used in exactly one place, to notice ROS time that has stopped (a dead
-``/clock``): that must be an error, not a hang.
+The bridge answers on ``stepped_topic`` with what it published up to that time; a tick
+then also waits for those messages, so it sees the same map, tf and move_base results as
+the direct simulator run at that time (topics are not ordered with respect to ``/clock``
+or to each other). A real robot announces no steps, and nothing waits there. Wall time is
+used only to bound waits: ROS time that has stopped (a dead ``/clock``) must be an error,
+an announced message that never comes a warning, and neither a hang.
 """
 
 from __future__ import annotations
@@ -49,21 +53,54 @@ from bomc_bt.ros.convert import (
 from bomc_bt.ros.params import RosParams
 
 NODE_NAME = "bomc_executive"
+MASTER_TIMEOUT = 3.0  # wall s to wait for the ROS master to answer before init_node
+SYNC_WAIT = 2.0  # wall s a lockstep tick waits for announced messages before going on without
 
 
 def ensure_node(name: str = NODE_NAME) -> Any:
-    """Initialise this process's ROS node once (rospy allows one per process)."""
+    """Initialise this process's ROS node once (rospy allows one per process).
+
+    ``rospy.init_node`` retries an unreachable master for ever, so the master is asked
+    first with a socket timeout: no roscore is a one-line error within seconds.
+    """
     rospy = import_ros()
     if not rospy.core.is_initialized():
+        check_master()
         try:
             rospy.init_node(name, anonymous=False, disable_signals=True)
         except Exception as exc:  # master unreachable: rospy raises several kinds
-            raise BomcError(
-                f"cannot reach the ROS master ({exc}); is roscore running and ROS_MASTER_URI set?",
-                None,
-                "ROS_MASTER_URI",
-            ) from None
+            raise _no_master(exc) from None
     return rospy
+
+
+def check_master(timeout: float = MASTER_TIMEOUT) -> None:
+    """Ask the master for its pid, bounded by ``timeout``; a BomcError if it does not answer."""
+    import xmlrpc.client
+
+    import rosgraph
+
+    class Transport(xmlrpc.client.Transport):  # xmlrpc's default connection never times out
+        def make_connection(self, host: Any) -> Any:
+            conn = super().make_connection(host)
+            conn.timeout = timeout
+            return conn
+
+    try:
+        proxy = xmlrpc.client.ServerProxy(rosgraph.get_master_uri(), transport=Transport())
+        proxy.getPid(f"/{NODE_NAME}_probe")
+    except Exception as exc:  # refused, timed out, unresolvable host, a bad URI
+        raise _no_master(exc) from None
+
+
+def _no_master(exc: Exception) -> BomcError:
+    import rosgraph
+
+    return BomcError(
+        f"cannot reach the ROS master at {rosgraph.get_master_uri()} ({exc}); "
+        "is roscore running and ROS_MASTER_URI set?",
+        None,
+        "ROS_MASTER_URI",
+    )
 
 
 class _Handle:
@@ -117,6 +154,7 @@ class NavGoal(_Handle):
         self._progress_at = self.sent_at
         self._progress_pose = robot.pose()
         self.gh = robot.action_client.send_goal(msg)
+        robot.goal_ids.add(self.gh.comm_state_machine.action_goal.goal_id.id)
         robot.counts["goals"] += 1
 
     def status(self) -> Status:
@@ -237,7 +275,7 @@ class RosRobot:
         import actionlib
         import tf2_ros
         from geometry_msgs.msg import PoseWithCovarianceStamped
-        from move_base_msgs.msg import MoveBaseAction
+        from move_base_msgs.msg import MoveBaseAction, MoveBaseActionResult
         from nav_msgs.msg import OccupancyGrid as GridMsg
         from rospy.numpy_msg import numpy_msg
         from sensor_msgs.msg import CameraInfo, Image
@@ -248,6 +286,7 @@ class RosRobot:
         self.mode = mode
         self.localized = mode == "build"
         self._lock = threading.Lock()
+        self._arrived = threading.Condition(self._lock)  # notified when a tracked message comes in
         self._map_msg: Any = None
         self._map_cache: tuple[int, OccupancyGrid] | None = None
         self._map_version = 0
@@ -266,35 +305,47 @@ class RosRobot:
         self._nav: NavGoal | None = None
         self._reloc: AmclRelocalization | None = None
         self._clock_seen = threading.Event()
+        # Lockstep bookkeeping (see _sync): the bridge's newest "stepped" announcement, the
+        # newest stamp (ns) received per topic, the move_base results received for our goals.
+        self._stepped: dict[str, Any] | None = None
+        self._received: dict[str, int] = {}
+        self._tracked: set[str] = set()  # the resolved topics _track subscribed to
+        self.goal_ids: set[str] = set()
+        self._results: set[str] = set()
+        self._unsynced: set[str] = set()  # announced things that once never came: not waited for
         self.use_sim_time = bool(rospy.get_param("/use_sim_time", False))
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(30.0))
         self._tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        track = self._track
         self._subs = [
-            rospy.Subscriber(p.map_topic, numpy_msg(GridMsg), self._on_map, queue_size=1),
-            rospy.Subscriber(p.scan_topic, ScanMsg, self._keep("_scan_msg"), queue_size=1),
-            rospy.Subscriber(p.amcl_pose_topic, PoseWithCovarianceStamped, self._on_amcl, queue_size=5),
-            rospy.Subscriber(p.rgb_topic, Image, self._on_image("rgb"), queue_size=5, buff_size=2**24),
-            rospy.Subscriber(p.depth_topic, Image, self._on_image("depth"), queue_size=5, buff_size=2**24),
-            rospy.Subscriber(p.camera_info_topic, CameraInfo, self._keep("_info"), queue_size=1),
+            track(p.map_topic, numpy_msg(GridMsg), self._on_map, queue_size=1),
+            track(p.scan_topic, ScanMsg, self._keep("_scan_msg"), queue_size=1),
+            track(p.amcl_pose_topic, PoseWithCovarianceStamped, self._on_amcl, queue_size=5),
+            track(p.rgb_topic, Image, self._on_image("rgb"), queue_size=5, buff_size=2**24),
+            track(p.depth_topic, Image, self._on_image("depth"), queue_size=5, buff_size=2**24),
+            track(p.camera_info_topic, CameraInfo, self._keep("_info"), queue_size=1),
         ]
         if p.instances_topic:
             self._subs += [
-                rospy.Subscriber(
-                    p.instances_topic, Image, self._on_image("instances"), queue_size=5, buff_size=2**24
-                ),
-                rospy.Subscriber(p.instances_topic + "/info", String, self._on_instance_info, queue_size=5),
+                track(p.instances_topic, Image, self._on_image("instances"), queue_size=5, buff_size=2**24),
+                track(p.instances_topic + "/info", String, self._on_instance_info, queue_size=5),
             ]
         if self.use_sim_time:
             from rosgraph_msgs.msg import Clock
 
-            self._subs.append(
-                rospy.Subscriber("/clock", Clock, lambda _m: self._clock_seen.set(), queue_size=1)
-            )
+            self._subs += [
+                rospy.Subscriber("/clock", Clock, lambda _m: self._clock_seen.set(), queue_size=1),
+                rospy.Subscriber(p.stepped, String, self._on_stepped, queue_size=10),
+            ]
         self.initialpose_pub = rospy.Publisher(
             p.initialpose_topic, PoseWithCovarianceStamped, queue_size=1, latch=True
         )
         self._tick_pub = rospy.Publisher(p.tick_topic, String, queue_size=10)
         self.action_client = actionlib.ActionClient(p.move_base_action, MoveBaseAction)
+        # After the client's own result subscriber: rospy calls a topic's callbacks in order,
+        # so a result counted here has already moved its goal handle to DONE.
+        result_topic = rospy.remap_name(p.move_base_action) + "/result"
+        self._subs.append(rospy.Subscriber(result_topic, MoveBaseActionResult, self._on_result, queue_size=10))
         self._wait_for_start()
         self._last_tick = self.now()
         self.distance_travelled = 0.0  # m along odom -> base_link (the session report's path length)
@@ -318,6 +369,43 @@ class RosRobot:
                     f"{p.server_timeout:.0f} s (ros.move_base_action)"
                 )
             time.sleep(0.02)
+        self._wait_for_bridge()
+
+    def _wait_for_bridge(self) -> None:
+        """A bridge announcing its steps: be connected to it before the first tick.
+
+        A message published before a subscription connects is lost to it, and the first
+        tick would wait for it in vain, so every topic the bridge publishes and this robot
+        reads must be connected, and its first announcement in, before ticking. Without
+        such a bridge (a real robot, Gazebo) this returns at once.
+        """
+        p = self.params
+        if not self.use_sim_time or not self._advertised(p.stepped):
+            return
+        deadline = time.monotonic() + p.server_timeout
+        while not self._bridge_connected():
+            if time.monotonic() > deadline:
+                self.rospy.logwarn("bomc: not connected to every topic of the sim bridge; ticks may not be exact")
+                break
+            time.sleep(0.01)
+        # What the bridge published before the connections were up is lost to them: ask for
+        # it again, so that the first tick, too, sees the state at its time.
+        self._publish_tick(self.now(), resend=True)
+        self._sync(self.now())
+
+    def _advertised(self, topic: str) -> bool:
+        rospy = self.rospy
+        name = rospy.resolve_name(topic)
+        return any(t == name for t, _type in rospy.get_published_topics())
+
+    def _bridge_connected(self) -> bool:
+        with self._lock:
+            stepped = self._stepped is not None
+        published = {t for t, _type in self.rospy.get_published_topics()}
+        subs = [s for s in self._subs if s.resolved_name in published] + [self._tf_listener.tf_sub]
+        return stepped and self._tick_pub.get_num_connections() > 0 and all(
+            s.get_num_connections() > 0 for s in subs
+        )
 
     def _server_ready(self) -> bool:
         """actionlib's wait_for_server test, without its wait on ROS time.
@@ -342,6 +430,9 @@ class RosRobot:
         for sub in self._subs:
             sub.unregister()
         self._subs = []
+        listener = getattr(self, "_tf_listener", None)
+        if listener is not None:  # else it fills this robot's buffer for the process's life
+            listener.unregister()
         for pub in (getattr(self, "initialpose_pub", None), getattr(self, "_tick_pub", None)):
             if pub is not None:
                 pub.unregister()
@@ -350,6 +441,33 @@ class RosRobot:
             client.stop()
 
     # -- callbacks -------------------------------------------------------------------------
+    def _track(self, topic: str, msg_type: Any, callback: Any, **kwargs: Any) -> Any:
+        """A subscriber that also notes the newest stamp received, for the lockstep wait."""
+        name = self.rospy.resolve_name(topic)
+        self._tracked.add(name)
+
+        def tracked(msg: Any) -> None:
+            callback(msg)
+            stamp = _stamp_ns(msg)
+            with self._arrived:
+                self._received[name] = max(self._received.get(name, -1), stamp)
+                self._arrived.notify_all()
+
+        return self.rospy.Subscriber(topic, msg_type, tracked, **kwargs)
+
+    def _on_stepped(self, msg: Any) -> None:
+        data = json.loads(msg.data)
+        with self._arrived:
+            self._stepped = data  # one publisher, in order: the last one is the newest
+            self._arrived.notify_all()
+
+    def _on_result(self, msg: Any) -> None:
+        goal_id = msg.status.goal_id.id
+        with self._arrived:
+            if goal_id in self.goal_ids:
+                self._results.add(goal_id)
+                self._arrived.notify_all()
+
     def _keep(self, attr: str):
         def callback(msg: Any) -> None:
             with self._lock:
@@ -395,7 +513,17 @@ class RosRobot:
 
     # -- port: time ------------------------------------------------------------------------
     def now(self) -> float:
-        return self.rospy.Time.now().to_sec()
+        """ROS time (s); in lockstep, the bridge's own float for the time on its /clock.
+
+        rospy.Time.from_sec truncates to whole ns, so the simulator's 8.1 s reads as
+        8.099999999 s, and "once a second" decisions (the trajectory rows) fall a tick
+        later than in the direct simulator run.
+        """
+        t = self.rospy.Time.now()
+        ann = self._stepped
+        if ann is not None and ann.get("until_ns") == t.to_nsec():
+            return ann["until"]
+        return t.to_sec()
 
     def step(self) -> None:
         """Sleep to the next tick on ROS time (a rospy.Rate that also notices a dead clock)."""
@@ -421,8 +549,53 @@ class RosRobot:
             if self.use_sim_time and wall - wall_start > 0.2:  # re-announce: a tick may be lost
                 wall_start = wall
                 self._publish_tick(target)
+        self._sync(target)
         self._last_tick = target
         self._track_odometry()
+
+    def _sync(self, target: float) -> None:
+        """Lockstep: wait until everything the bridge published up to ``target`` is here.
+
+        Bounded by ``SYNC_WAIT`` wall seconds; what did not come in time is not waited for
+        again (a topic this robot is not connected to), with a warning, so a mismatch costs
+        one wait, not one per tick.
+        """
+        if self._stepped is None or self.params.stepped in self._unsynced:
+            return  # no bridge announces steps (a real robot, a free-running bridge)
+        deadline = time.monotonic() + SYNC_WAIT
+        while missing := self._missing(target):
+            if self.rospy.is_shutdown():
+                raise MissionFailed("ROS shut down")
+            if time.monotonic() > deadline:
+                self._unsynced |= missing
+                self.rospy.logwarn(
+                    f"bomc: {', '.join(sorted(missing))} not received within {SYNC_WAIT:.0f} s of the bridge's "
+                    f"step to {target:.2f} s; no longer waited for"
+                )
+                return
+            with self._arrived:  # woken by a tracked message; tf (tf2's own callback) is polled
+                self._arrived.wait(0.001)
+
+    def _missing(self, target: float) -> set[str]:
+        """What the newest announcement lists that this robot has not received yet."""
+        with self._lock:
+            ann, received, results = self._stepped, dict(self._received), set(self._results)
+        if ann is None or ann["until"] < target - 1e-6:
+            return {self.params.stepped}
+        skip = self._unsynced
+        missing = {
+            topic
+            for topic, ns in ann["stamps"].items()
+            if topic in self._tracked and topic not in skip and received.get(topic, -1) < ns
+        }
+        for topic, goal_id in ann["result"].items():
+            if topic not in skip and goal_id in self.goal_ids and goal_id not in results:
+                missing.add(topic)
+        if ann["tf"] and "/tf" not in skip:
+            when = self.rospy.Time(0, ann["tf"][0])
+            if not all(self.tf_buffer.can_transform(parent, child, when) for parent, child in ann["tf"][1]):
+                missing.add("/tf")
+        return missing
 
     def _track_odometry(self) -> None:
         """Add the odom-frame translation since the last tick: smooth, unlike map -> base_link."""
@@ -436,10 +609,11 @@ class RosRobot:
             self.distance_travelled += math.hypot(xy[0] - self._odom_xy[0], xy[1] - self._odom_xy[1])
         self._odom_xy = xy
 
-    def _publish_tick(self, target: float) -> None:
+    def _publish_tick(self, target: float, resend: bool = False) -> None:
         from std_msgs.msg import String
 
-        self._tick_pub.publish(String(data=json.dumps({"until": target, **self.counts})))
+        data = {"until": target, **self.counts, **({"resend": True} if resend else {})}
+        self._tick_pub.publish(String(data=json.dumps(data)))
 
     # -- port: pose and maps -----------------------------------------------------------------
     def _lookup(self, target: str, source: str, stamp: Any = None) -> np.ndarray | None:
@@ -469,7 +643,7 @@ class RosRobot:
                 return self._grid
             return OccupancyGrid(data=np.full((1, 1), -1, np.int8), resolution=0.05, origin=(0.0, 0.0))
         if self._map_cache is None or self._map_cache[0] != version:
-            self._map_cache = (version, grid_from_msg(msg))
+            self._map_cache = (version, _decimal_resolution(grid_from_msg(msg)))
         return self._map_cache[1]
 
     def use_map(self, grid: OccupancyGrid) -> None:
@@ -618,5 +792,26 @@ class RosRobot:
         threading.Thread(target=call, name=f"bomc-{name}", daemon=True).start()
 
 
+def _decimal_resolution(grid: OccupancyGrid) -> OccupancyGrid:
+    """The grid with the decimal resolution its float32 message field stands for.
+
+    nav_msgs/OccupancyGrid carries the resolution as float32: 0.05 arrives as
+    0.0500000007, which moves cell boundaries (world_to_cell floors) off the saved map's
+    and the simulator's. The shortest decimal that round-trips the float32 is what the
+    sender (map_server reads a YAML decimal) meant.
+    """
+    resolution = float(str(np.float32(grid.resolution)))
+    return OccupancyGrid(grid.data, resolution, tuple(grid.origin))
+
+
 def _stamp(msg: Any) -> float:
     return round(msg.header.stamp.to_sec(), 6)
+
+
+def _stamp_ns(msg: Any) -> int:
+    """A message's stamp in ns: its header's, or the ``stamp`` of the JSON instance info."""
+    import rospy
+
+    if hasattr(msg, "header"):
+        return msg.header.stamp.to_nsec()
+    return rospy.Time.from_sec(float(json.loads(msg.data)["stamp"])).to_nsec()
