@@ -7,13 +7,20 @@ objects there are never detected (nor their removal noticed). After the planned 
 the pass knows which free floor its camera actually saw (:class:`~bomc_bt.monitoring.Coverage`);
 this module turns the rest into a few extra viewpoints.
 
-Greedy set cover on a coarse lattice: unseen free cells in regions of at least
-``min_area`` are the targets; candidates are reachable free places with clearance; a
-candidate sees a target within ``view_range`` (and beyond ``min_range``, where the tilted
-camera's image starts) along a line that crosses no occupied or unknown cell; the best
+Greedy set cover on a coarse lattice: unseen floor in regions of at least ``min_area``
+is the target -- free cells, and unknown cells within ``shadow`` of free ones, because
+furniture is exactly what casts lidar shadows (the lidar sees a table's legs, the camera
+the chair behind it); candidates are places the robot can reach (through gaps of twice
+``pass_clearance``) with ``clearance``; a candidate sees a target within ``view_range``
+(and beyond ``min_range``, where the tilted camera's image starts) along a line that
+crosses no occupied cell and unknown ones only in the target's own shadow; the best
 heading of a candidate is the ``hfov``-wide window holding most targets not yet covered.
 Viewpoints are taken while one still adds ``min_gain`` square metres, at most
 ``max_viewpoints``, and ordered by nearest neighbour from the robot.
+
+After a resumed pass only the frames since the resume count as seen, so the gap phase
+may then add viewpoints an uninterrupted pass would not need: extra driving, never a
+missed look.
 """
 
 from __future__ import annotations
@@ -33,13 +40,16 @@ class GapParams:
     """Settings of the gap-viewpoint search (a leaf's ``params`` in ``trees/traverse.yaml``)."""
 
     min_area: float = 1.0  # m²: unseen regions smaller than this are left alone
-    max_viewpoints: int = 8  # extra viewpoints per pass at most
+    max_viewpoints: int = 12  # extra viewpoints per pass at most
     min_gain: float = 1.0  # m² of newly seen floor that makes a viewpoint worth driving to
-    view_range: float = 4.0  # m: planned reach of the camera (projection.expect_range or less)
+    view_range: float = 4.0  # m: planned reach of the camera (less than projection.expect_range)
     min_range: float = 1.0  # m: nearer floor is below the tilted camera's image
     hfov_deg: float = 50.0  # planned field of view: the camera's, less a margin
     clearance: float = 0.45  # m from obstacles for a viewpoint
     pass_clearance: float = 0.3  # m: the robot's radius, for what it can reach (a narrow door)
+    # m of unknown map beyond free floor that count as floor to see: the lidar's shadows,
+    # which is where furniture stands (the lidar sees legs, the camera the whole chair)
+    shadow: float = 0.75
     target_step: float = 0.25  # m between target samples
     candidate_step: float = 0.5  # m between candidate viewpoints
 
@@ -56,11 +66,23 @@ class GapParams:
             raise ValueError("clearance must be >= 0 and the steps > 0")
         if not 0 <= self.pass_clearance <= self.clearance:
             raise ValueError("need 0 <= pass_clearance <= clearance")
+        if self.shadow < 0:
+            raise ValueError("shadow must be >= 0")
 
 
 def gap_targets(grid: OccupancyGrid, seen: np.ndarray, params: GapParams) -> np.ndarray:
-    """(M, 2) map points sampling the free floor not seen, in regions of at least min_area."""
-    missing = (grid.free_mask() & ~seen.astype(bool)).astype(np.uint8)
+    """(M, 2) map points sampling the floor not seen, in regions of at least min_area.
+
+    Floor is the free cells and the unknown cells within ``shadow`` of them: behind a
+    table or a chair the lidar saw only legs, and the camera, higher up, sees what stands
+    there.
+    """
+    free = grid.free_mask()
+    floor = free
+    if params.shadow > 0:
+        near = cv2.distanceTransform((~free).astype(np.uint8), cv2.DIST_L2, 5) * grid.resolution
+        floor = free | (grid.unknown_mask() & (near <= params.shadow))
+    missing = (floor & ~seen.astype(bool)).astype(np.uint8)
     missing = cv2.morphologyEx(missing, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))  # no slivers
     n, labels, stats, _ = cv2.connectedComponentsWithStats(missing, connectivity=8)
     big = np.zeros(n, dtype=bool)
@@ -97,29 +119,36 @@ def _candidates(grid: OccupancyGrid, targets: np.ndarray, start: tuple[float, fl
 
 
 class _Blocked:
-    """What stops the camera's view (occupied or unknown), pooled to ``cell`` metres so a
-    ray sampled every ``cell`` cannot step over a one-cell wall."""
+    """What stops the camera's view, pooled to ``cell`` metres so a ray sampled every
+    ``cell`` cannot step over a one-cell wall: occupied cells, and unknown ones."""
 
     def __init__(self, grid: OccupancyGrid, cell: float):
-        k = max(1, round(cell / grid.resolution))
-        blocked = ~grid.free_mask()
-        h, w = -(-blocked.shape[0] // k) * k, -(-blocked.shape[1] // k) * k
-        padded = np.ones((h, w), dtype=bool)
-        padded[: blocked.shape[0], : blocked.shape[1]] = blocked
-        self.mask = padded.reshape(h // k, k, w // k, k).any(axis=(1, 3))
-        self.origin, self.cell = grid.origin, grid.resolution * k
+        self.k = max(1, round(cell / grid.resolution))
+        self.occupied = self._pool(grid.occupied_mask())
+        self.unknown = self._pool(~grid.free_mask())
+        self.origin, self.cell = grid.origin, grid.resolution * self.k
 
-    def hits(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    def _pool(self, mask: np.ndarray) -> np.ndarray:
+        k = self.k
+        h, w = -(-mask.shape[0] // k) * k, -(-mask.shape[1] // k) * k
+        padded = np.ones((h, w), dtype=bool)
+        padded[: mask.shape[0], : mask.shape[1]] = mask
+        return padded.reshape(h // k, k, w // k, k).any(axis=(1, 3))
+
+    def hits(self, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(occupied, occupied or unknown) at each point; outside the map is both."""
         cols = np.floor((xs - self.origin[0]) / self.cell).astype(np.int64)
         rows = np.floor((ys - self.origin[1]) / self.cell).astype(np.int64)
-        inside = (rows >= 0) & (rows < self.mask.shape[0]) & (cols >= 0) & (cols < self.mask.shape[1])
-        out = np.ones(xs.shape, dtype=bool)
-        out[inside] = self.mask[rows[inside], cols[inside]]
-        return out
+        inside = (rows >= 0) & (rows < self.occupied.shape[0]) & (cols >= 0) & (cols < self.occupied.shape[1])
+        occ, unk = np.ones(xs.shape, dtype=bool), np.ones(xs.shape, dtype=bool)
+        occ[inside] = self.occupied[rows[inside], cols[inside]]
+        unk[inside] = self.unknown[rows[inside], cols[inside]]
+        return occ, unk
 
 
 def _visible(blocked: _Blocked, at: np.ndarray, targets: np.ndarray, params: GapParams) -> np.ndarray:
-    """Indices of ``targets`` in range of ``at`` with a clear line of sight to them."""
+    """Indices of ``targets`` in range of ``at`` with a clear line of sight to them: no
+    occupied cell on the way, and unknown ones only in the last ``shadow`` metres."""
     d = np.hypot(targets[:, 0] - at[0], targets[:, 1] - at[1])
     idx = np.nonzero((d >= params.min_range) & (d <= params.view_range))[0]
     if len(idx) == 0:
@@ -129,7 +158,9 @@ def _visible(blocked: _Blocked, at: np.ndarray, targets: np.ndarray, params: Gap
     t = np.linspace(0.0, 1.0, samples)[None, :] * np.maximum(0.0, 1.0 - 1.5 * blocked.cell / d[idx])[:, None]
     xs = at[0] + t * (targets[idx, 0] - at[0])[:, None]
     ys = at[1] + t * (targets[idx, 1] - at[1])[:, None]
-    return idx[~blocked.hits(xs, ys).any(axis=1)]
+    occ, unk = blocked.hits(xs, ys)
+    before_shadow = t * d[idx][:, None] < d[idx][:, None] - params.shadow - blocked.cell
+    return idx[~(occ | (unk & before_shadow)).any(axis=1)]
 
 
 def _best_heading(bearings: np.ndarray, weight: np.ndarray, hfov: float) -> tuple[float, float]:
