@@ -150,3 +150,12 @@ def test_a_truncated_view_beside_a_big_known_object_is_not_a_new_one():
     # small objects are not held back: a cut-off chair next to a known chair is a second chair
     g = graph_with("chair", 0.25, 0.25)
     assert [e.kind for e in g.associate([sliver("chair", -1.0, -0.75, cut=True)], [], 1, 1.0)] == ["added"]
+
+
+def test_a_sessions_first_near_match_starts_the_footprint_over():
+    g = ObjectGraph(AssociationParams(confirm_detections=1))
+    g.associate([boxed("table", -0.6, -0.4, 0.6, 0.4)], [], 1, 0.0)
+    g.associate([boxed("table", -0.3, -0.4, 0.9, 0.4)], [0], 2, 1.0)  # nudged 0.3 m between visits
+    assert np.allclose(g.nodes[0].footprint, [-0.3, -0.4, 0.9, 0.4])
+    g.associate([boxed("table", -0.3, -0.5, 0.8, 0.4)], [0], 2, 2.0)  # later views of the session add up
+    assert np.allclose(g.nodes[0].footprint, [-0.3, -0.5, 0.9, 0.4])
