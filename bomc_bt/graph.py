@@ -85,6 +85,10 @@ class Node:
     misses: int = 0  # consecutive expected-but-unseen frames (robust mode)
     # robust: floor-plane box (xmin, ymin, xmax, ymax) the object's points have covered, None unknown
     footprint: np.ndarray | None = None
+    # robot time of the latest frame that matched (or added) the node in this process; None
+    # when it was loaded from the store and not seen since. Not persisted: it only says how
+    # stale a node has grown during the pass at hand (see monitoring.unverified_headings).
+    last_seen: float | None = None
 
     def __post_init__(self) -> None:
         self.position = np.asarray(self.position, dtype=float).reshape(3)
@@ -325,7 +329,7 @@ class ObjectGraph:
                 events.append(self._remove(v, session, stamp))
                 continue
             unmatched &= ~hits[row]
-            self._touch(v, session)
+            self._touch(v, session, stamp)
         candidates = [obs[j] for j in np.nonzero(unmatched)[0]]
         near = self._within_many(candidates)
         added: list[Node] = []  # V' grows inside the loop: later observations see earlier additions
@@ -363,8 +367,12 @@ class ObjectGraph:
         for j, o in enumerate(obs):
             if j in matched_obs or len(near[j][0]) or self._near_any(o, placed):
                 continue  # matched, or absorbed: a closer observation already matched that node
-            if o.truncated and self._touches_footprint(o):
-                continue  # a part of a known object, cut off by an occluder (see _touches_footprint)
+            if o.truncated and (v := self._touched_node(o)) is not None:
+                # a part of a known object, cut off by an occluder (see _touched_node)
+                event = self._refresh(v, o, session, stamp, restart=False)
+                if event is not None:
+                    events.append(event)
+                continue
             if not self._confirmed(o, stamp):
                 continue
             moved = self._move_candidate(o)
@@ -464,8 +472,11 @@ class ObjectGraph:
         whose points lie mostly on floor the node's object already covered is that object,
         however far its centroid is from the node's. ``restart`` (the first match of a
         session) starts the footprint over from this view if it is near enough to have a
-        box, so an object nudged between visits does not keep the floor it stood on last
-        time; a far first match keeps the old footprint for the session. (Restarting at the
+        box and sticks out of the old footprint, so an object nudged between visits does not
+        keep the floor it stood on last time. A first view that lies inside the old footprint
+        says the object is where it was: a table seen past its chairs shows one end, and
+        shrinking it to that end would make a duplicate of the other end when it comes into
+        view. A far first match keeps the old footprint for the session. (Restarting at the
         first *boxed* view instead shrank tables to partial views and let a sliver become a
         duplicate again: office-s perfect session 3, 0.984 -> 0.977.)
         """
@@ -473,10 +484,12 @@ class ObjectGraph:
         if slot is not None and self._node_gates:
             self._gate_slot[slot] = max(self._gate_slot[slot], self.gate(o))
         if self._boxes and o.box is not None:
+            if restart and v.footprint is not None and _inside(o.box, v.footprint, _NOISE_PAD):
+                restart = False
             self._set_footprint(v, o.box.copy() if restart else _union(v.footprint, o.box))
 
-    def _touches_footprint(self, o: Observation) -> bool:
-        """Whether a truncated view lies against a same-category node's footprint.
+    def _touched_node(self, o: Observation) -> Node | None:
+        """The big same-category node whose footprint a truncated view lies against, if any.
 
         A table behind chairs may only ever show its two ends, from two sides: views whose
         boxes are a chair's width apart. That is also what two tables side by side look
@@ -485,19 +498,27 @@ class ObjectGraph:
         of that object, not a new one (at worst a second object is added later, when seen
         whole). Only big objects (a footprint side longer than delta_c) count: small ones
         are seen whole often enough, and chairs around a table are a chair's width apart.
+        The view then extends that node's footprint: a table whose far end was hidden by a
+        chair until the chair went away grows to its whole length as the end comes into
+        view, a sliver at a time, instead of the next sliver becoming a second table.
         """
         if not self._boxes or o.box is None:
-            return False
+            return None
         touch = self.params.footprint_touch
         grown = o.box + np.array([-touch, -touch, touch, touch])
         reach = max(self.params.extent_gate * self.threshold(o.category), _half_diagonal(grown))
         slots = self._cat_candidates(o.category, o.position * self._scale, reach)
         if len(slots) == 0:
-            return False
+            return None
         boxes = self._box_slot[slots]
         with np.errstate(invalid="ignore"):
             big = np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) > self.threshold(o.category)
-        return bool((big & _overlapping(boxes, grown, 1e-9)).any())
+        hits = np.nonzero(big & _overlapping(boxes, grown, 1e-9))[0]
+        if len(hits) == 0:
+            return None
+        gaps = [_box_gap(boxes[k], o.box) for k in hits]
+        best = min(range(len(hits)), key=lambda i: (gaps[i], int(self._slot_id[slots[hits[i]]])))
+        return self.nodes[int(self._slot_id[slots[hits[best]]])]
 
     def _set_footprint(self, v: Node, box: np.ndarray | None) -> None:
         v.footprint = box
@@ -517,16 +538,17 @@ class ObjectGraph:
         hit = _overlapping(self._box_slot[slots], o.box, self.params.footprint_overlap)
         return sorted(int(i) for i in self._slot_id[slots[hit]])
 
-    def _refresh(self, v: Node, o: Observation, session: int, stamp: float) -> Event | None:
+    def _refresh(self, v: Node, o: Observation, session: int, stamp: float,
+                 restart: bool | None = None) -> Event | None:
         w = self.params.position_smoothing
         first_in_session = v.last_session != session
-        self._grow_extent(v, o, restart=first_in_session)
+        self._grow_extent(v, o, restart=first_in_session if restart is None else restart)
         target = (1.0 - w) * v.position + w * o.position
         if self._is_big(v):  # the middle of the floor it covers, not of its visible faces
             target[:2] = (v.footprint[:2] + v.footprint[2:]) / 2.0
         self._relocate(v, target)
         v.confidence = max(v.confidence, float(o.confidence))
-        self._seen(v, session)
+        self._seen(v, session, stamp)
         reported = self._reported.get(v.id)
         drift = math.inf if reported is None else float(np.linalg.norm(v.position - reported))
         if first_in_session or drift > self.params.report_distance:
@@ -569,12 +591,13 @@ class ObjectGraph:
         if self._boxes:  # where it stood before says nothing about its size here
             self._set_footprint(v, o.box)
         v.confidence = float(o.confidence)
-        self._seen(v, session)
+        self._seen(v, session, stamp)
         return self._event("moved", v, session, stamp, previous)
 
-    def _seen(self, v: Node, session: int) -> None:
+    def _seen(self, v: Node, session: int, stamp: float) -> None:
         """Bookkeeping of a node an observation just confirmed: no removal pending."""
         v.last_session = session
+        v.last_seen = stamp
         v.observations += 1
         v.misses = 0
         self._pending.discard(v.id)
@@ -617,13 +640,15 @@ class ObjectGraph:
             self._tentative = []
             self._session = session
 
-    def _touch(self, v: Node, session: int) -> None:
+    def _touch(self, v: Node, session: int, stamp: float) -> None:
         v.last_session = session
+        v.last_seen = stamp
         v.observations += 1
         self._changed[v.id] = v
 
     def _add(self, o: Observation, session: int, stamp: float) -> Event:
-        node = Node(self.next_id, o.category, o.position.copy(), float(o.confidence), session, session)
+        node = Node(self.next_id, o.category, o.position.copy(), float(o.confidence), session, session,
+                    last_seen=stamp)
         self.next_id += 1
         self._insert(node)
         self._grow_extent(node, o)
@@ -804,6 +829,23 @@ def _union(a: np.ndarray | None, b: np.ndarray | None) -> np.ndarray | None:
     return np.array([min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])])
 
 
+# m: how far a view's box may stick out of a footprint and still be the same floor (depth
+# noise at box_range, and the points being samples of a surface rather than its outline)
+_NOISE_PAD = 0.1
+
+
+def _inside(box: np.ndarray, outer: np.ndarray, pad: float) -> bool:
+    return bool(box[0] >= outer[0] - pad and box[1] >= outer[1] - pad
+                and box[2] <= outer[2] + pad and box[3] <= outer[3] + pad)
+
+
+def _box_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """Distance between two boxes (0 when they overlap)."""
+    dx = max(0.0, a[0] - b[2], b[0] - a[2])
+    dy = max(0.0, a[1] - b[3], b[1] - a[3])
+    return math.hypot(dx, dy)
+
+
 def _half_diagonal(box: np.ndarray) -> float:
     return 0.5 * math.hypot(box[2] - box[0], box[3] - box[1])
 
@@ -860,7 +902,7 @@ def associate_linear_scan(
             continue
         for j in hits:
             unmatched[j] = False
-        graph._touch(v, session)
+        graph._touch(v, session, stamp)
     for j, o in enumerate(observations):
         if not unmatched[j]:
             continue

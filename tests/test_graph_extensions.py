@@ -141,15 +141,32 @@ def test_a_truncated_view_beside_a_big_known_object_is_not_a_new_one():
         g.associate([boxed(category, -half_x, -half_y, half_x, half_y)], [], 1, 0.0)
         return g
 
-    # a table's far end, 0.3 m past what a chair hides, seen past that chair: the same table
+    # a table's far end, 0.3 m past what a chair hides, seen past that chair: the same table,
+    # which grows to its whole length (the next sliver further out touches it again)
     g = graph_with("table", 0.6, 0.4)
-    assert g.associate([sliver("table", -1.05, -0.9, cut=True)], [], 1, 1.0) == [] and len(g.nodes) == 1
+    events = g.associate([sliver("table", -1.05, -0.9, cut=True)], [], 1, 1.0)
+    assert len(g.nodes) == 1 and all(e.kind == "updated" and e.node_id == 0 for e in events)
+    assert np.allclose(g.nodes[0].footprint, [-1.05, -0.4, 0.6, 0.4])
+    assert np.isclose(g.nodes[0].position[0], -0.225)  # a big object sits in the middle of its floor
+    g.associate([sliver("table", -1.6, -1.5, cut=True)], [], 1, 2.0)
+    assert len(g.nodes) == 1 and np.isclose(g.nodes[0].footprint[0], -1.6)
     # the same view, whole (nothing nearer borders it): a second table
     g = graph_with("table", 0.6, 0.4)
     assert [e.kind for e in g.associate([sliver("table", -1.05, -0.9, cut=False)], [], 1, 1.0)] == ["added"]
     # small objects are not held back: a cut-off chair next to a known chair is a second chair
     g = graph_with("chair", 0.25, 0.25)
     assert [e.kind for e in g.associate([sliver("chair", -1.0, -0.75, cut=True)], [], 1, 1.0)] == ["added"]
+
+
+def test_a_sessions_first_view_inside_the_old_footprint_keeps_it():
+    """A table seen past its chairs shows one end: it has not shrunk, and keeping its old
+    floor lets the other end, when it comes into view, be the same table."""
+    g = ObjectGraph(AssociationParams(confirm_detections=1))
+    g.associate([boxed("table", -0.6, -0.4, 0.6, 0.4)], [], 1, 0.0)
+    g.associate([boxed("table", -0.6, -0.4, -0.1, 0.35)], [0], 2, 1.0)  # the west end only
+    assert np.allclose(g.nodes[0].footprint, [-0.6, -0.4, 0.6, 0.4])
+    events = g.associate([boxed("table", 0.3, -0.4, 0.62, 0.4)], [0], 2, 2.0)  # the east end
+    assert len(g.nodes) == 1 and [e.kind for e in events if e.kind != "updated"] == []
 
 
 def test_a_sessions_first_near_match_starts_the_footprint_over():
