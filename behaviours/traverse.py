@@ -236,11 +236,21 @@ class LookAroundParams:
     max_turns: int = 2  # headings per waypoint at most
     dwell: float = 1.5  # s of robot time facing each heading (frames to confirm or miss)
     timeout: float = 30.0  # s for the whole look-around
+    # s of robot time: a node this pass confirmed longer ago gets a look again, in case it
+    # was taken away after the camera passed (0: only nodes not confirmed yet)
+    refresh_after: float = 600.0
+
+    def __post_init__(self) -> None:
+        if self.radius <= 0 or self.max_turns < 0 or self.dwell < 0 or self.timeout <= 0:
+            raise ValueError("need radius > 0, max_turns >= 0, dwell >= 0 and timeout > 0")
+        if self.refresh_after < 0:
+            raise ValueError("refresh_after must be >= 0 (0: no refresh)")
 
 
 @register("LookAround")
 class LookAround(Leaf):
-    """At a waypoint, turns the camera towards nodes this pass has not yet confirmed."""
+    """At a waypoint, turns the camera towards nodes this pass has not yet confirmed, or
+    confirmed so long ago (``refresh_after``) that they may have gone since."""
 
     Params = LookAroundParams
 
@@ -249,7 +259,8 @@ class LookAround(Leaf):
         pose = ctx.robot.pose()
         hfov = math.radians(ctx.config.camera.hfov_deg)
         self.headings = [] if pose is None else unverified_headings(
-            ctx.graph, pose, ctx.session, ctx.robot.live_map(), self.params.radius, hfov, self.params.max_turns)
+            ctx.graph, pose, ctx.session, ctx.robot.live_map(), self.params.radius, hfov, self.params.max_turns,
+            now=ctx.now(), stale_after=self.params.refresh_after)
         self.pose = pose
         self.handle = None
         self.dwell_until: float | None = None

@@ -131,7 +131,8 @@ def _line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float]
 
 
 def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, radius: float,
-                        fov: float, max_turns: int) -> list[float]:
+                        fov: float, max_turns: int, now: float | None = None,
+                        stale_after: float = 0.0) -> list[float]:
     """Headings to turn to so the camera checks nearby nodes this pass has not confirmed.
 
     A node not matched in this session (or with misses pending) is either still there,
@@ -140,6 +141,13 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
     them or count misses until removal is confirmed. Nodes behind a wall (no line of
     sight on the map up to half a metre short of them) are left for another waypoint.
     Headings are grouped into camera-wide windows, nearest turn first.
+
+    With ``stale_after`` > 0 and the robot time ``now``, a node this pass confirmed more
+    than ``stale_after`` seconds ago counts as unconfirmed again: an object can be taken
+    away after the camera passed it (an intra-session change), and the paper's robot
+    never looks back. Where the pass brings the robot near such a node again, a turn of
+    the head shows whether it is still there (the paper's future work: revisit regions
+    where change is expected).
     """
     square = np.array([[pose.x - radius, pose.y - radius], [pose.x + radius, pose.y - radius],
                        [pose.x + radius, pose.y + radius], [pose.x - radius, pose.y + radius]])
@@ -149,7 +157,8 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
     for node in graph.nodes_in_polygon(square):
         dx, dy = node.position[0] - pose.x, node.position[1] - pose.y
         distance = math.hypot(dx, dy)
-        if distance > radius or distance < 0.5 or (node.last_session == session and node.id not in pending):
+        if distance > radius or distance < 0.5 or (node.last_session == session and node.id not in pending
+                                                     and not _stale(node, now, stale_after)):
             continue
         stop = (pose.x + dx * (1 - 0.5 / distance), pose.y + dy * (1 - 0.5 / distance))
         if _line_of_sight(grid, free, (pose.x, pose.y), stop):
@@ -159,6 +168,12 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
         if all(abs(wrap_angle(b - h)) > 0.4 * fov for h in headings):
             headings.append(b)
     return headings[:max_turns]
+
+
+def _stale(node, now: float | None, stale_after: float) -> bool:
+    """Confirmed by this pass, but longer than ``stale_after`` seconds ago."""
+    seen = getattr(node, "last_seen", None)
+    return stale_after > 0 and now is not None and seen is not None and now - seen > stale_after
 
 
 class Coverage:

@@ -1,0 +1,86 @@
+"""Look Around: which way a waypoint turns the camera to confirm nodes, or see they are gone."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from behaviours.traverse import LookAroundParams
+from bomc_bt.geometry import Pose2D
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.monitoring import unverified_headings
+
+ROBUST = AssociationParams(mode="robust", confirm_detections=1)
+FOV = math.radians(60.0)
+
+
+def open_room() -> OccupancyGrid:
+    """10 x 10 m of free floor inside walls, with a wall at x = 7 m (closed, no door)."""
+    data = np.zeros((200, 200), np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    data[:, 140] = 100
+    return OccupancyGrid(data, 0.05, (0.0, 0.0))
+
+
+def graph_seen_at(stamp: float, session: int = 2) -> ObjectGraph:
+    """Chairs east (behind the wall), north and south of (5, 5), all matched at ``stamp``."""
+    nodes = [Node(0, "chair", np.array([8.0, 5.0, 0.5]), 0.9, 1, 1),
+             Node(1, "chair", np.array([5.0, 8.0, 0.5]), 0.9, 1, 1),
+             Node(2, "chair", np.array([5.0, 2.0, 0.5]), 0.9, 1, 1)]
+    g = ObjectGraph(ROBUST, nodes)
+    g.associate([Observation("chair", n.position.copy(), 0.9) for n in nodes], [0, 1, 2], session, stamp)
+    return g
+
+
+def test_matching_a_node_records_when_it_was_seen():
+    g = graph_seen_at(42.0)
+    assert all(n.last_seen == 42.0 for n in g.nodes.values())
+    g.associate([Observation("chair", np.array([5.0, 8.1, 0.5]), 0.9)], [1], 2, 50.0)
+    assert g.nodes[1].last_seen == 50.0 and g.nodes[0].last_seen == 42.0
+    events = g.associate([Observation("table", np.array([3.0, 3.0, 0.4]), 0.9)], [], 2, 51.0)
+    added = g.nodes[events[0].node_id]
+    assert added.last_seen == 51.0
+
+
+def test_nodes_not_confirmed_this_pass_get_a_look_but_not_through_a_wall():
+    g = graph_seen_at(10.0, session=1)  # matched in session 1: session 2 has confirmed none
+    headings = unverified_headings(g, Pose2D(5.0, 5.0, 0.0), 2, open_room(), 5.0, FOV, 4)
+    assert sorted(round(math.degrees(h)) for h in headings) == [-90, 90]  # not east: the wall
+
+
+def test_recently_confirmed_nodes_need_no_look():
+    g = graph_seen_at(100.0)
+    pose = Pose2D(5.0, 5.0, 0.0)
+    assert unverified_headings(g, pose, 2, open_room(), 5.0, FOV, 4, now=200.0, stale_after=600.0) == []
+
+
+def test_nodes_confirmed_long_ago_get_a_look_again():
+    """An object can be taken away after the camera passed it: a node this pass confirmed
+    more than ``stale_after`` seconds ago is looked at again from where the robot stands."""
+    g = graph_seen_at(100.0)
+    pose = Pose2D(5.0, 5.0, 0.0)
+    headings = unverified_headings(g, pose, 2, open_room(), 5.0, FOV, 4, now=800.0, stale_after=600.0)
+    assert sorted(round(math.degrees(h)) for h in headings) == [-90, 90]
+    # refresh off (0), or no clock: only what this pass has not confirmed
+    assert unverified_headings(g, pose, 2, open_room(), 5.0, FOV, 4, now=800.0, stale_after=0.0) == []
+    assert unverified_headings(g, pose, 2, open_room(), 5.0, FOV, 4, stale_after=600.0) == []
+    # max_turns bounds the turning, nearest turn first
+    assert len(unverified_headings(g, Pose2D(5.0, 5.0, 1.5), 2, open_room(), 5.0, FOV, 1,
+                                   now=800.0, stale_after=600.0)) == 1
+
+
+def test_a_node_loaded_from_the_store_is_not_stale_until_seen():
+    """``last_seen`` is robot time of this process; a node read from the store has none."""
+    g = ObjectGraph(ROBUST, [Node(0, "chair", np.array([5.0, 8.0, 0.5]), 0.9, 2, 2)])
+    assert g.nodes[0].last_seen is None
+    assert unverified_headings(g, Pose2D(5.0, 5.0, 0.0), 2, open_room(), 5.0, FOV, 4,
+                               now=5000.0, stale_after=600.0) == []
+
+
+@pytest.mark.parametrize("field,value", [("refresh_after", -1.0), ("radius", 0.0), ("max_turns", -1)])
+def test_bad_look_around_params_are_refused(field, value):
+    with pytest.raises(ValueError, match=field):
+        LookAroundParams(**{field: value})
