@@ -40,9 +40,14 @@ class GapParams:
     """Settings of the gap-viewpoint search (a leaf's ``params`` in ``trees/traverse.yaml``)."""
 
     min_area: float = 1.0  # m²: unseen regions smaller than this are left alone
-    max_viewpoints: int = 12  # extra viewpoints per pass at most
+    # extra viewpoints per pass at most: a bound on the extra driving; min_gain is what
+    # normally ends the list (on office-s the 20th viewpoint, 1.5 m², was the only one
+    # that sees into a room whose door a chair half blocks)
+    max_viewpoints: int = 40
     min_gain: float = 1.0  # m² of newly seen floor that makes a viewpoint worth driving to
-    view_range: float = 4.0  # m: planned reach of the camera (less than projection.expect_range)
+    # m: planned reach of the camera; projection.expect_range, so a viewpoint is planned as
+    # far as the graph would expect (and confirm) objects in a frame
+    view_range: float = 5.0
     min_range: float = 1.0  # m: nearer floor is below the tilted camera's image
     hfov_deg: float = 50.0  # planned field of view: the camera's, less a margin
     clearance: float = 0.45  # m from obstacles for a viewpoint
