@@ -10,6 +10,14 @@ from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
 
 
+def cancel_if_interrupted(leaf, new_status: Status) -> None:
+    """A leaf that drives the robot and is interrupted (a higher-priority branch took over,
+    or the tree stopped) cancels its goal, so the robot does not keep driving for nobody."""
+    handle = getattr(leaf, "handle", None)
+    if new_status == Status.INVALID and handle is not None and not handle.status().done:
+        handle.cancel()
+
+
 @dataclass
 class FailParams:
     message: str = "failed"

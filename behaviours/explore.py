@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from behaviours.common import cancel_if_interrupted
 from bomc_bt.exploration.explorer import DONE, EXPLORING, TIME_LIMIT, Explorer, still_open
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import Status as Nav
@@ -145,9 +146,7 @@ class DriveToFrontier(Leaf):
         return Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
-        handle = getattr(self, "handle", None)
-        if new_status == Status.INVALID and handle is not None and not handle.status().done:
-            handle.cancel()
+        cancel_if_interrupted(self, new_status)
 
 
 @register("BlacklistGoal")

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from behaviours.common import cancel_if_interrupted
 from bomc_bt.geometry import Pose2D
 from bomc_bt.monitoring import DETOURED, MISSED, VISITED, TraversalState, detour_viewpoints, unverified_headings
 from bomc_bt.planner import GridPlanner
@@ -165,9 +166,7 @@ class NavigateTo(Leaf):
         return Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
-        handle = getattr(self, "handle", None)
-        if new_status == Status.INVALID and handle is not None and not handle.status().done:
-            handle.cancel()
+        cancel_if_interrupted(self, new_status)
 
 
 @dataclass
@@ -288,6 +287,4 @@ class LookAround(Leaf):
         return Status.RUNNING
 
     def terminate(self, new_status: Status) -> None:
-        handle = getattr(self, "handle", None)
-        if new_status == Status.INVALID and handle is not None and not handle.status().done:
-            handle.cancel()
+        cancel_if_interrupted(self, new_status)

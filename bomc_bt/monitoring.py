@@ -172,7 +172,7 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
 
 def _stale(node, now: float | None, stale_after: float) -> bool:
     """Confirmed by this pass, but longer than ``stale_after`` seconds ago."""
-    seen = getattr(node, "last_seen", None)
+    seen = node.last_seen
     return stale_after > 0 and now is not None and seen is not None and now - seen > stale_after
 
 
