@@ -10,12 +10,23 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
 from py_trees.common import Status
 
 from behaviours.common import cancel_if_interrupted
 from bomc_bt.geometry import Pose2D
-from bomc_bt.monitoring import DETOURED, MISSED, VISITED, TraversalState, detour_viewpoints, unverified_headings
+from bomc_bt.monitoring import (
+    DETOURED,
+    GAPS,
+    MISSED,
+    REFRESH,
+    VISITED,
+    TraversalState,
+    detour_viewpoints,
+    unverified_headings,
+)
 from bomc_bt.planner import GridPlanner
+from bomc_bt.refresh import RefreshParams, refresh_viewpoints, stale_nodes
 from bomc_bt.robot import Status as Nav
 from bomc_bt.site import write_json
 from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
@@ -99,15 +110,54 @@ class PlanGapViewpoints(Leaf):
     def update(self) -> Status:
         ctx = self.context
         state = ctx.traverse
-        if state.gaps_from is not None or ctx.perception is None:
-            self.feedback_message = "gaps already covered" if state.gaps_from is not None else "no perception"
+        if state.planned(GAPS) or ctx.perception is None:
+            self.feedback_message = "gaps already covered" if state.planned(GAPS) else "no perception"
             return Status.FAILURE
         views = gap_viewpoints(ctx.robot.live_map(), ctx.perception.coverage.seen, ctx.robot.pose(), self.params)
-        state.add_gap_viewpoints(views)
-        ctx.store.set_progress(progress_key(ctx), {**state.to_json(), "plan": ctx.plan.to_json()})
-        ctx.progress.waypoints = len(state.states)
+        _extend(ctx, GAPS, views)
         self.feedback_message = f"{len(views)} gap viewpoints"
         return Status.SUCCESS if views else Status.FAILURE
+
+
+@register("PlanRefreshStops")
+class PlanRefreshStops(Leaf):
+    """Before the pass ends: adds stops that look again at the nodes confirmed longest ago.
+
+    An object taken away after the camera passed it is only noticed if the camera looks
+    again (see :mod:`bomc_bt.refresh`). Fails when the stops were planned already this
+    pass or nothing is stale, which ends the traversal.
+    """
+
+    Params = RefreshParams
+
+    def update(self) -> Status:
+        ctx = self.context
+        state = ctx.traverse
+        pose = ctx.robot.pose()
+        if state.planned(REFRESH) or ctx.graph is None or pose is None:
+            self.feedback_message = "refresh already planned" if state.planned(REFRESH) else "nothing to refresh"
+            return Status.FAILURE
+        now = ctx.now()
+        stale = stale_nodes(ctx.graph.nodes.values(), now, self.params.stale_after)
+        grid = ctx.robot.live_map()
+        planner = GridPlanner(grid, ctx.config.sim.planner)
+
+        def distances(at: tuple[float, float]):
+            field = planner.distances_from(at)
+            return lambda points: np.array([planner.lookup(field, p) for p in points])
+
+        budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
+        stops = refresh_viewpoints(grid, stale, now, state.reached(), pose, budget, distances, self.params)
+        _extend(ctx, REFRESH, stops)
+        self.feedback_message = f"{len(stops)} refresh stops for {len(stale)} stale nodes"
+        return Status.SUCCESS if stops else Status.FAILURE
+
+
+def _extend(ctx, phase: str, views: list[Pose2D]) -> None:
+    """Appends a phase's viewpoints to the pass and saves the bookkeeping (resume)."""
+    ctx.traverse.add_viewpoints(phase, views)
+    ctx.store.set_progress(progress_key(ctx), {**ctx.traverse.to_json(), "plan": ctx.plan.to_json()})
+    ctx.progress.waypoints = len(ctx.traverse.states)
 
 
 @dataclass

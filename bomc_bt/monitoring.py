@@ -26,24 +26,47 @@ from bomc_bt.robot import RGBDFrame
 from bomc_bt.traversal import TraversalPlan
 
 PENDING, VISITED, DETOURED, MISSED = "pending", "visited", "detoured", "missed"
+GAPS, REFRESH = "gaps", "refresh"  # phases a pass adds to its plan after the waypoints
 
 
 @dataclass
 class TraversalState:
-    """Where the pass is in its plan; JSON-able so a killed pass can resume."""
+    """Where the pass is in its plan; JSON-able so a killed pass can resume.
+
+    The plan grows in phases: the sampled waypoints, then the gap viewpoints, then the
+    refresh stops (``phases`` maps each added phase to the index of its first entry).
+    """
 
     plan: TraversalPlan
     states: list[str] = field(default_factory=list)
     index: int = 0  # next position in the plan's order
     retried: list[int] = field(default_factory=list)  # missed waypoints already tried again
     current: int | None = None
-    gaps_from: int | None = None  # index of the first gap viewpoint, once they were planned
+    phases: dict[str, int] = field(default_factory=dict)  # "gaps" / "refresh" -> first index
 
-    def add_gap_viewpoints(self, viewpoints: list[Pose2D]) -> None:
-        """Append the viewpoints planned after the last waypoint (once per pass)."""
-        self.gaps_from = len(self.states)
+    def add_viewpoints(self, phase: str, viewpoints: list[Pose2D]) -> None:
+        """Append the viewpoints of ``phase``, planned once per pass after what came before."""
+        self.phases[phase] = len(self.states)
         self.plan.waypoints.extend(viewpoints)
         self.states.extend([PENDING] * len(viewpoints))
+
+    def add_gap_viewpoints(self, viewpoints: list[Pose2D]) -> None:
+        self.add_viewpoints(GAPS, viewpoints)
+
+    @property
+    def gaps_from(self) -> int | None:
+        """Index of the first gap viewpoint, once they were planned."""
+        return self.phases.get(GAPS)
+
+    def planned(self, phase: str) -> bool:
+        return phase in self.phases
+
+    def phase_count(self, phase: str) -> int:
+        """How many entries ``phase`` added (0 if not planned)."""
+        if phase not in self.phases:
+            return 0
+        later = [i for i in self.phases.values() if i > self.phases[phase]]
+        return min(later, default=len(self.states)) - self.phases[phase]
 
     def __post_init__(self) -> None:
         if not self.states:
@@ -71,6 +94,11 @@ class TraversalState:
     def waypoint(self, i: int) -> Pose2D:
         return self.plan.waypoints[i]
 
+    def reached(self) -> np.ndarray:
+        """(K, 2) positions of the waypoints and viewpoints visited so far (the robot fit there)."""
+        xy = [(p.x, p.y) for p, s in zip(self.plan.waypoints, self.states, strict=True) if s == VISITED]
+        return np.array(xy, dtype=float).reshape(-1, 2)
+
     @property
     def done_count(self) -> int:
         return sum(s != PENDING for s in self.states)
@@ -79,19 +107,20 @@ class TraversalState:
         counts = {s: self.states.count(s) for s in (VISITED, DETOURED, MISSED, PENDING)}
         missed = [{"index": i, "x": round(self.waypoint(i).x, 2), "y": round(self.waypoint(i).y, 2)}
                   for i, s in enumerate(self.states) if s == MISSED]
-        gaps = 0 if self.gaps_from is None else len(self.states) - self.gaps_from
-        return {"waypoints": len(self.states), **counts, "missed_waypoints": missed, "gap_viewpoints": gaps}
+        return {"waypoints": len(self.states), **counts, "missed_waypoints": missed,
+                "gap_viewpoints": self.phase_count(GAPS), "refresh_stops": self.phase_count(REFRESH)}
 
     def to_json(self) -> dict[str, Any]:
-        return {"states": self.states, "index": self.index, "retried": self.retried, "gaps_from": self.gaps_from}
+        return {"states": self.states, "index": self.index, "retried": self.retried, "phases": self.phases}
 
     def restore(self, data: dict[str, Any]) -> None:
         if len(data.get("states", [])) == len(self.states):
             self.states = list(data["states"])
             self.index = int(data["index"])
             self.retried = list(data.get("retried", []))
-            gaps = data.get("gaps_from")
-            self.gaps_from = int(gaps) if isinstance(gaps, int) and 0 <= gaps <= len(self.states) else None
+            phases = data.get("phases") or ({GAPS: data["gaps_from"]} if "gaps_from" in data else {})
+            self.phases = {str(k): int(v) for k, v in phases.items()
+                           if isinstance(v, int) and 0 <= v <= len(self.states)}
 
 
 def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: float, count: int,
@@ -117,12 +146,12 @@ def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: 
     for ax, ay in avoid:
         ok &= np.hypot(xs - ax, ys - ay) > avoid_radius
     picks = [(float(x), float(y)) for x, y in zip(xs[ok], ys[ok], strict=True)
-             if _line_of_sight(grid, free, (x, y), target)]
+             if line_of_sight(grid, free, (x, y), target)]
     picks.sort(key=lambda p: (math.hypot(p[0] - target[0], p[1] - target[1]), p))
     return picks[:count]
 
 
-def _line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> bool:
+def line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> bool:
     n = max(2, int(math.hypot(b[0] - a[0], b[1] - a[1]) / (grid.resolution * 0.5)))
     t = np.linspace(0.0, 1.0, n)
     rows, cols = grid.world_to_cell(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
@@ -161,7 +190,7 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
                                                      and not _stale(node, now, stale_after)):
             continue
         stop = (pose.x + dx * (1 - 0.5 / distance), pose.y + dy * (1 - 0.5 / distance))
-        if _line_of_sight(grid, free, (pose.x, pose.y), stop):
+        if line_of_sight(grid, free, (pose.x, pose.y), stop):
             bearings.append(math.atan2(dy, dx))
     headings: list[float] = []
     for b in sorted(bearings, key=lambda b: abs(wrap_angle(b - pose.yaw))):

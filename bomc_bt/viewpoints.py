@@ -168,7 +168,7 @@ def _visible(blocked: _Blocked, at: np.ndarray, targets: np.ndarray, params: Gap
     return idx[~(occ | (unk & before_shadow)).any(axis=1)]
 
 
-def _best_heading(bearings: np.ndarray, weight: np.ndarray, hfov: float) -> tuple[float, float]:
+def best_heading(bearings: np.ndarray, weight: np.ndarray, hfov: float) -> tuple[float, float]:
     """(heading, weight inside) of the hfov-wide window holding the most weight."""
     if len(bearings) == 0 or not weight.any():
         return 0.0, 0.0
@@ -207,7 +207,7 @@ def gap_viewpoints(grid: OccupancyGrid, seen: np.ndarray, start: Pose2D | None,
         for k, (v, b) in enumerate(zip(views, bearings, strict=True)):
             if len(v) * cell < max(params.min_gain, best[0] * cell):
                 continue  # cannot beat the best even if all of it were new
-            heading, gain = _best_heading(b, ~covered[v], hfov)
+            heading, gain = best_heading(b, ~covered[v], hfov)
             if gain > best[0]:
                 best = (gain, k, heading)
         gain, k, heading = best

@@ -90,32 +90,30 @@ def test_perfect_detector_maps_every_session_of_lab_b_exactly(shared, tmp_path):
 
 
 def test_perfect_detector_on_office_s(shared, tmp_path, capsys):
-    """Sessions 1 and 2 score 1.0 in every class. Session 3 finds every object, and its one
-    false positive is chair-10: the world removes it at 300 s, after the pass has looked at
-    it, and the pass does not come back within sight of it (the paper's robot cannot see
-    such a change either; the next pass does). Measured 1.0 / 1.0 / 0.992 (seeded); before
-    node footprints and gap viewpoints 0.978 / 0.984 / 0.962. Nothing else may be wrong:
-    chair-4, in a room whose door a chair half blocks, is found by a gap viewpoint that
-    looks in from the corridor."""
+    """Every session scores 1.0 in every class. The hard cases, each once a miss:
+    - chair-4 stands in a room whose door a chair half blocks; a gap viewpoint looks in
+      from the corridor.
+    - chair-10 is removed at 300 s of session 3, after the pass has looked at it, and
+      the planned route never comes back within sight of it; the refresh tour at the
+      end of the pass goes back to the nodes confirmed longest ago and sees it gone.
+    Measured 1.0 / 1.0 / 1.0 (seeded); before node footprints, gap viewpoints and the
+    refresh tour 0.978 / 0.984 / 0.962."""
     config = config_with(tmp_path, "detector: {preset: perfect}\n")
     world, site = shared / "worlds" / "office-s.yaml", tmp_path / "site"
     scores = _monitor_sessions(world, site, config)
     with capsys.disabled():
         print("\noffice-s perfect-detector F1 per session:", {n: round(f, 3) for n, f in scores.items()})
-    for n in (1, 2):
+    for n in (1, 2, 3):
         result = evaluate_session(world, site, n, config)
         assert all(s.f1 == 1.0 for s in result.classes.values()), (n, result.classes)
-    result = evaluate_session(world, site, 3, config)
-    assert result.overall.fn == 0, result.classes
     store = SiteStore(site / "site.db")
     try:
-        matched = {m.node_id for m in result.matches}
-        false = [n for n in store.graph_after(3) if n.id not in matched]
+        removed = [e for e in store.events(session=3) if e.kind == "removed"]
     finally:
         store.close()
     chair_10 = load_world(world).objects["chair-10"].position
-    assert len(false) == 1 and false[0].category == "chair", false
-    assert np.linalg.norm(false[0].position[:2] - chair_10[:2]) < 0.7
+    late = [e for e in removed if np.linalg.norm(e.position[:2] - chair_10[:2]) < 0.7]
+    assert len(late) == 1 and late[0].stamp > 300.0, removed  # the intra-session change
 
 
 def test_realistic_detector_keeps_f1_above_0_9_on_lab_b(shared, tmp_path):

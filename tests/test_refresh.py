@@ -1,0 +1,153 @@
+"""Refresh tour: going back, before the pass ends, to nodes confirmed longest ago."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bomc_bt.geometry import Pose2D, wrap_angle
+from bomc_bt.graph import Node
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.monitoring import GAPS, PENDING, REFRESH, VISITED, TraversalState
+from bomc_bt.planner import GridPlanner, PlannerParams
+from bomc_bt.refresh import RefreshParams, refresh_viewpoints, stale_nodes
+from bomc_bt.traversal import TraversalPlan
+
+NOW = 1000.0
+
+
+def corridor(wall: bool = False) -> OccupancyGrid:
+    """30 x 4 m of free floor; with ``wall``, a wall at x = 15 m from y = 2 m up (y 0-2 open)."""
+    data = np.zeros((80, 600), np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    if wall:
+        data[40:, 300] = 100
+    return OccupancyGrid(data, 0.05, (0.0, 0.0))
+
+
+def node(i: int, x: float, y: float, last_seen: float | None) -> Node:
+    n = Node(i, "chair", np.array([x, y, 0.45]), 0.9, 1, 2)
+    n.last_seen = last_seen
+    return n
+
+
+def euclidean(at):
+    return lambda points: np.hypot(points[:, 0] - at[0], points[:, 1] - at[1])
+
+
+def grid_paths(grid: OccupancyGrid):
+    planner = GridPlanner(grid, PlannerParams())
+
+    def distances(at):
+        field = planner.distances_from(at)
+        return lambda points: np.array([planner.lookup(field, p) for p in points])
+    return distances
+
+
+def tour_length(start: Pose2D, stops: list[Pose2D]) -> float:
+    xy = [(start.x, start.y)] + [(s.x, s.y) for s in stops]
+    return float(sum(math.dist(a, b) for a, b in zip(xy, xy[1:], strict=False)))
+
+
+def faces(stop: Pose2D, n: Node, hfov_deg: float = 50.0) -> bool:
+    bearing = math.atan2(n.position[1] - stop.y, n.position[0] - stop.x)
+    return abs(wrap_angle(bearing - stop.yaw)) <= math.radians(hfov_deg) / 2 + 1e-6
+
+
+CANDIDATES = np.array([[x, 1.0] for x in np.arange(1.0, 30.0, 2.0)])
+
+
+def test_only_nodes_confirmed_longer_ago_than_stale_after_are_stale():
+    nodes = [node(0, 5, 3, 100.0), node(1, 9, 3, 500.0), node(2, 12, 3, None)]
+    assert [n.id for n in stale_nodes(nodes, NOW, 600.0)] == [0]
+    assert [n.id for n in stale_nodes(nodes, NOW, 0.0)] == [0, 1]  # never seen this pass: not a refresh
+
+
+def test_a_stop_brings_the_stale_node_into_the_camera_view():
+    target = node(0, 20.0, 3.0, 100.0)
+    stops = refresh_viewpoints(corridor(), [target], NOW, CANDIDATES, Pose2D(1, 1, 0), 100.0, euclidean)
+    assert len(stops) == 1
+    (stop,) = stops
+    assert 0.5 <= math.dist((stop.x, stop.y), target.position[:2]) <= 5.0
+    assert faces(stop, target)
+
+
+def test_the_oldest_node_wins_when_the_budget_allows_one_stop():
+    old, recent = node(0, 25.0, 3.0, 50.0), node(1, 5.0, 3.0, 350.0)  # ages 950 and 650 s
+    start = Pose2D(15.0, 1.0, 0.0)  # 10 m from either
+    stops = refresh_viewpoints(corridor(), [old, recent], NOW, CANDIDATES, start, 10.0, euclidean)
+    assert len(stops) == 1 and faces(stops[0], old) and math.dist((stops[0].x, stops[0].y), (25, 3)) <= 5.0
+
+
+def test_the_tour_stays_within_its_budget():
+    nodes = [node(i, x, 3.0, 0.0) for i, x in enumerate((5.0, 15.0, 25.0))]
+    start = Pose2D(1.0, 1.0, 0.0)
+    for budget in (3.0, 12.0, 22.0, 100.0):
+        stops = refresh_viewpoints(corridor(), nodes, NOW, CANDIDATES, start, budget, euclidean)
+        assert tour_length(start, stops) <= budget + 1e-9
+    assert refresh_viewpoints(corridor(), nodes, NOW, CANDIDATES, start, 0.0, euclidean) == []
+    everything = refresh_viewpoints(corridor(), nodes, NOW, CANDIDATES, start, 100.0, euclidean)
+    assert all(any(math.dist((s.x, s.y), n.position[:2]) <= 5.0 for s in everything) for n in nodes)
+
+
+def test_stops_come_in_driving_order_whatever_order_they_were_chosen_in():
+    """The far node is oldest and chosen first; the near one is inserted before it."""
+    far, near = node(0, 27.0, 3.0, 0.0), node(1, 9.0, 3.0, 390.0)
+    start = Pose2D(1.0, 1.0, 0.0)
+    stops = refresh_viewpoints(corridor(), [far, near], NOW, CANDIDATES, start, 100.0, euclidean)
+    assert len(stops) == 2
+    assert stops[0].x < stops[1].x  # near first, then far: no doubling back
+    assert tour_length(start, stops) <= tour_length(start, stops[::-1])
+
+
+def test_no_stop_looks_through_a_wall_and_paths_go_round_it():
+    """The node is just behind a wall; the candidate across it is nearer but sees nothing."""
+    grid = corridor(wall=True)
+    target = node(0, 16.0, 3.0, 0.0)
+    candidates = np.array([[14.0, 3.0], [18.0, 3.0]])
+    start = Pose2D(14.0, 3.5, 0.0)
+    stops = refresh_viewpoints(grid, [target], NOW, candidates, start, 100.0, grid_paths(grid))
+    assert [(round(s.x), round(s.y)) for s in stops] == [(18, 3)]
+    # 4 m as the crow flies, but the way round the wall is longer than 5 m
+    assert [(round(s.x), round(s.y)) for s in
+            refresh_viewpoints(grid, [target], NOW, candidates, start, 5.0, euclidean)] == [(18, 3)]
+    assert refresh_viewpoints(grid, [target], NOW, candidates, start, 5.0, grid_paths(grid)) == []
+
+
+def test_nothing_stale_means_no_tour():
+    fresh = [node(0, 10.0, 3.0, 900.0)]
+    assert refresh_viewpoints(corridor(), stale_nodes(fresh, NOW, 600.0), NOW, CANDIDATES,
+                              Pose2D(1, 1, 0), 100.0, euclidean) == []
+
+
+@pytest.mark.parametrize("field,value", [("stale_after", -1.0), ("budget", -0.1), ("max_viewpoints", -1),
+                                          ("view_range", 0.2), ("hfov_deg", 0.0), ("stop_cost", -1.0)])
+def test_bad_params_are_refused(field, value):
+    with pytest.raises(ValueError):
+        RefreshParams(**{field: value})
+
+
+def test_refresh_stops_extend_the_pass_after_the_gaps_and_survive_a_resume():
+    plan = TraversalPlan([Pose2D(0, 0, 0), Pose2D(3, 0, 0)], 3.0)
+    state = TraversalState(plan)
+    for _ in range(2):
+        state.mark(state.next(), VISITED)
+    state.add_viewpoints(GAPS, [Pose2D(5, 5, 1.0)])
+    state.mark(state.next(), VISITED)
+    state.add_viewpoints(REFRESH, [Pose2D(0, 1, 0.0), Pose2D(3, 1, 0.0)])
+    assert state.next() == 3 and state.states[3:] == [PENDING, PENDING]
+    assert state.reached().tolist() == [[0, 0], [3, 0], [5, 5]]
+    saved = {**state.to_json(), "plan": plan.to_json()}
+    resumed = TraversalState(TraversalPlan.from_json(saved["plan"]))
+    resumed.restore(saved)
+    assert resumed.planned(GAPS) and resumed.planned(REFRESH)
+    assert resumed.summary()["gap_viewpoints"] == 1 and resumed.summary()["refresh_stops"] == 2
+
+
+def test_a_pass_saved_before_refresh_stops_existed_resumes():
+    plan = TraversalPlan([Pose2D(0, 0, 0), Pose2D(3, 0, 0), Pose2D(5, 5, 1.0)], 3.0)
+    state = TraversalState(plan)
+    state.restore({"states": [VISITED, VISITED, PENDING], "index": 2, "retried": [], "gaps_from": 2})
+    assert state.gaps_from == 2 and not state.planned(REFRESH) and state.next() == 2
