@@ -222,6 +222,32 @@ def test_cancel_maps_to_cancelled(bridge):
         robot.close()
 
 
+def test_a_goal_lost_on_the_way_costs_one_wait_not_one_per_step(bridge):
+    """The executive announces a goal the bridge never receives (lost in transit). The
+    bridge waits COUNT_WAIT for it once, then steps on at full speed; before, every
+    later step waited again and a run crawled at a few simulated steps a minute."""
+    from bomc_bt.ros.bridge import COUNT_WAIT
+
+    bridge("--mode", "build")
+    robot = _robot("build")
+    try:
+        _settle(robot)
+        robot.counts["goals"] += 1  # announced, never sent
+        start = time.monotonic()
+        robot.step()
+        first = time.monotonic() - start
+        start, before = time.monotonic(), robot.now()
+        for _ in range(10):
+            robot.step()
+        later = time.monotonic() - start
+        assert robot.now() > before  # the simulator kept stepping
+        assert first < 3 * COUNT_WAIT and later < 2 * COUNT_WAIT, (first, later)
+        handle = robot.navigate(Pose2D(6.0, 6.5, 0.0))  # and the next real goal still works
+        assert _until_done(robot, handle) is Status.SUCCEEDED
+    finally:
+        robot.close()
+
+
 @pytest.mark.parametrize("encoding", ["32FC1", "16UC1"])
 def test_rgbd_frames_in_both_depth_encodings(bridge, tmp_path, encoding):
     bridge("--mode", "monitor", "--map", str(WORLD.parent / "lab-b-map.yaml"), "--depth-encoding", encoding)

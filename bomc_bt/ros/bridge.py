@@ -247,6 +247,7 @@ class SimBridge:
                     deadline = time.monotonic() + COUNT_WAIT
                     while any(self.got[k] < self.wanted[k] for k in self.got) and time.monotonic() < deadline:
                         self.wake.wait(0.005)
+                    self._resync_counts()
                     until = self.until
                 self._drain()
                 while self.sim.now() < until - 1e-6:
@@ -256,6 +257,20 @@ class SimBridge:
                 self._drain()
                 self.step()
                 time.sleep(max(0.0, dt / self.realtime_factor - (time.monotonic() - start)))
+
+    def _resync_counts(self) -> None:
+        """Give up on announced messages that did not arrive within COUNT_WAIT.
+
+        A goal or cancel lost on the way (or dropped by a slow subscriber) would otherwise
+        make every later step wait COUNT_WAIT wall seconds: the run would crawl at a few
+        simulated steps a minute. Counting it as arrived costs what was lost, no more.
+        """
+        behind = {k: self.wanted[k] - self.got[k] for k in self.got if self.got[k] < self.wanted[k]}
+        if behind:
+            self.rospy.logwarn(f"bridge: stepping without {behind} announced but not received "
+                               f"within {COUNT_WAIT} s")
+            for k in behind:
+                self.got[k] = self.wanted[k]
 
     def step(self) -> None:
         """One simulator step, then everything it changed, then the clock."""
