@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 from py_trees.common import Status
 
 from behaviours.common import cancel_if_interrupted
@@ -140,12 +139,7 @@ class PlanRefreshStops(Leaf):
         now = ctx.now()
         stale = stale_nodes(ctx.graph.nodes.values(), now, self.params.stale_after)
         grid = ctx.robot.live_map()
-        planner = GridPlanner(grid, ctx.config.sim.planner)
-
-        def distances(at: tuple[float, float]):
-            field = planner.distances_from(at)
-            return lambda points: np.array([planner.lookup(field, p) for p in points])
-
+        distances = GridPlanner(grid, ctx.config.sim.planner).path_lengths_from
         budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
         stops = refresh_viewpoints(grid, stale, now, state.reached(), pose, budget, distances, self.params)
         _extend(ctx, REFRESH, stops)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -305,6 +306,15 @@ class GridPlanner:
                     push(heap, (nd, j))
         field = np.asarray(best).reshape(-1, w)[1:-1, 1:-1]
         return field * self.resolution
+
+    def path_lengths_from(self, start_xy) -> Callable[[np.ndarray], np.ndarray]:
+        """A function giving the path lengths (m) from ``start_xy`` to points (K, 2).
+
+        One :meth:`distances_from` field, looked up per point: what the refresh tour
+        (:mod:`bomc_bt.refresh`) prices its stops with.
+        """
+        field = self.distances_from(start_xy)
+        return lambda points: np.array([self.lookup(field, p) for p in np.asarray(points).reshape(-1, 2)])
 
     def lookup(self, field: np.ndarray, xy) -> float:
         """Value of a planning-grid field (e.g. from :meth:`distances_from`) at ``xy``."""

@@ -38,12 +38,7 @@ def euclidean(at):
 
 
 def grid_paths(grid: OccupancyGrid):
-    planner = GridPlanner(grid, PlannerParams())
-
-    def distances(at):
-        field = planner.distances_from(at)
-        return lambda points: np.array([planner.lookup(field, p) for p in points])
-    return distances
+    return GridPlanner(grid, PlannerParams()).path_lengths_from
 
 
 def tour_length(start: Pose2D, stops: list[Pose2D]) -> float:
