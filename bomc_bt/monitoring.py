@@ -50,9 +50,6 @@ class TraversalState:
         self.plan.waypoints.extend(viewpoints)
         self.states.extend([PENDING] * len(viewpoints))
 
-    def add_gap_viewpoints(self, viewpoints: list[Pose2D]) -> None:
-        self.add_viewpoints(GAPS, viewpoints)
-
     @property
     def gaps_from(self) -> int | None:
         """Index of the first gap viewpoint, once they were planned."""

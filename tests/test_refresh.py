@@ -137,7 +137,7 @@ def test_refresh_stops_extend_the_pass_after_the_gaps_and_survive_a_resume():
     saved = {**state.to_json(), "plan": plan.to_json()}
     resumed = TraversalState(TraversalPlan.from_json(saved["plan"]))
     resumed.restore(saved)
-    assert resumed.planned(GAPS) and resumed.planned(REFRESH)
+    assert resumed.gaps_from == 2 and resumed.waypoint(2) == Pose2D(5, 5, 1.0) and resumed.planned(REFRESH)
     assert resumed.summary()["gap_viewpoints"] == 1 and resumed.summary()["refresh_stops"] == 2
 
 

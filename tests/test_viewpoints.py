@@ -9,8 +9,6 @@ import pytest
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.monitoring import PENDING, VISITED, TraversalState
-from bomc_bt.traversal import TraversalPlan
 from bomc_bt.viewpoints import GapParams, gap_targets, gap_viewpoints
 
 RES = 0.05
@@ -83,21 +81,6 @@ def test_max_viewpoints_and_min_gain_bound_the_extra_driving():
 def test_bad_params_are_refused(field, value):
     with pytest.raises(ValueError):
         GapParams(**{field: value})
-
-
-def test_gap_viewpoints_extend_the_pass_and_survive_a_resume():
-    plan = TraversalPlan([Pose2D(0, 0, 0), Pose2D(3, 0, 0)], 3.0)
-    state = TraversalState(plan)
-    for _ in range(2):
-        state.mark(state.next(), VISITED)
-    assert state.next() is None
-    state.add_gap_viewpoints([Pose2D(5, 5, 1.0)])
-    assert state.next() == 2 and state.states[2] == PENDING
-    saved = {**state.to_json(), "plan": plan.to_json()}
-    resumed = TraversalState(TraversalPlan.from_json(saved["plan"]))
-    resumed.restore(saved)
-    assert resumed.gaps_from == 2 and resumed.waypoint(2) == Pose2D(5, 5, 1.0)
-    assert resumed.summary()["gap_viewpoints"] == 1
 
 
 def test_the_lidar_shadow_of_furniture_is_worth_a_look():
