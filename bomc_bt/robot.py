@@ -120,6 +120,9 @@ class RGBDFrame:
 class RobotPort(Protocol):
     """Everything a behaviour needs from a robot, and nothing that blocks."""
 
+    distance_travelled: float
+    """Metres the base has driven since the robot was made (odometry; the path length of reports)."""
+
     def now(self) -> float:
         """Robot time in seconds (simulated or ROS time)."""
 

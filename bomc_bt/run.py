@@ -68,9 +68,9 @@ def run_tree(ctx: MissionContext, tree_path: Path, *, quiet: bool = True, stream
     ``hooks`` are called as ``hook(runner)`` after every tick; ``context_hooks`` are
     factories called once with the mission context that return such a hook (the viewer).
     """
-    from behaviours import registry
+    from bomc_bt.tree.registry import load_registry
 
-    root = load_tree(tree_path, registry(), ctx, clock=ctx.robot.now)
+    root = load_tree(tree_path, load_registry(), ctx, clock=ctx.robot.now)
     on_tick = list(hooks) + [factory(ctx) for factory in context_hooks]
     view = None
     if not quiet:

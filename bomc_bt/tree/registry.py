@@ -6,6 +6,7 @@ registry; tests build their own :class:`Registry` so they do not see (or pollute
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any, TypeVar
@@ -91,3 +92,18 @@ REGISTRY = Registry()
 """The default registry that behaviour modules add their leaves to."""
 
 register = REGISTRY.register
+
+
+LEAF_PACKAGE = "behaviours"
+"""The package whose import registers the production leaves (the top-level ``behaviours/``)."""
+
+
+def load_registry(package: str = LEAF_PACKAGE) -> Registry:
+    """The default registry once ``package`` has registered its leaves.
+
+    The library never imports the leaves by name (they depend on it, not the other way
+    round): a mission names the package that plugs its leaves in, and importing it runs
+    their ``@register`` decorators.
+    """
+    importlib.import_module(package)
+    return REGISTRY
