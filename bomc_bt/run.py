@@ -121,7 +121,7 @@ def run_build(world_path: str | Path, site_dir: str | Path, *, seed: int = 0, ma
               quiet: bool = True, stream: TextIO = sys.stdout, hooks: list[Callable] = (),
               context_hooks: list[Callable] = ()) -> MissionResult:
     """Explore the world from its start pose with the build tree; the map is always saved."""
-    from behaviours.save_map import SaveMap, build_summary
+    from bomc_bt.build_record import build_summary, save_build
     from bomc_bt.sim.robot import SimRobot
     from bomc_bt.world import load_world
 
@@ -135,11 +135,11 @@ def run_build(world_path: str | Path, site_dir: str | Path, *, seed: int = 0, ma
     limit = max_time if max_time is not None else config.exploration.max_time
     result = run_tree(ctx, Path(tree) if tree else default_tree("build"), quiet=quiet, stream=stream,
                       max_time=limit * 1.25 + 120.0, hooks=hooks, context_hooks=context_hooks,
-                      on_interrupt=lambda c: SaveMap.save(c))
+                      on_interrupt=save_build)
     if ctx.trajectory is not None:
         ctx.trajectory.close()
     if not site.map_yaml.exists():  # a custom tree that never saved: never lose the map
-        SaveMap.save(ctx)
+        save_build(ctx)
     result.summary = build_summary(ctx)
     result.summary["outcome"] = "succeeded" if result.succeeded else ("interrupted" if result.interrupted else "failed")
     from bomc_bt.site import write_json

@@ -93,7 +93,7 @@ def run_build_ros(
     context_hooks: list[Callable] = (),
 ) -> MissionResult:
     """Explore with the build tree on the ROS robot (GMapping's /map, move_base); save the map."""
-    from behaviours.save_map import SaveMap, build_summary
+    from bomc_bt.build_record import build_summary, save_build
     from bomc_bt.ros.robot import RosRobot
     from bomc_bt.site import write_json
 
@@ -115,12 +115,12 @@ def run_build_ros(
             max_time=limit * 1.25 + 120.0,
             hooks=_hooks(robot, ctx, params, hooks),
             context_hooks=context_hooks,
-            on_interrupt=lambda c: SaveMap.save(c),
+            on_interrupt=save_build,
         )
         if ctx.trajectory is not None:
             ctx.trajectory.close()
         if not site.map_yaml.exists():
-            SaveMap.save(ctx)
+            save_build(ctx)
         result.summary = build_summary(ctx)
         result.summary["outcome"] = (
             "succeeded" if result.succeeded else ("interrupted" if result.interrupted else "failed")
