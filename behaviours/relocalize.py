@@ -28,7 +28,7 @@ class Relocalize(Leaf):
     Params = RelocalizeParams
 
     def initialise(self) -> None:
-        hint = None if self.params.global_search else self.context.extras.get("dock")
+        hint = None if self.params.global_search else self.context.dock
         self.handle = self.context.robot.relocalize(hint, global_search=self.params.global_search)
         self.deadline = self.context.now() + self.params.timeout
 

@@ -53,7 +53,7 @@ class PlanTraversal(Leaf):
     def update(self) -> Status:
         ctx = self.context
         if ctx.traverse is None:
-            saved = ctx.store.get_progress(progress_key(ctx)) if ctx.extras.get("resume") else None
+            saved = ctx.store.get_progress(progress_key(ctx)) if ctx.resume else None
             if saved and "plan" in saved:  # resuming: the same plan, at the next waypoint
                 ctx.plan = TraversalPlan.from_json(saved["plan"], ctx.store.path)
                 ctx.traverse = TraversalState(ctx.plan)

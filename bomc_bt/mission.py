@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from bomc_bt.config import Config
+from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import RobotPort
 from bomc_bt.site import Site, TrajectoryRecorder
 
@@ -40,6 +41,8 @@ class MissionContext:
     session: int = 0
     seed: int = 0
     max_time: float | None = None
+    dock: Pose2D | None = None  # where the robot starts a pass: the hint for relocalization
+    resume: bool = False  # continue the session's pass where a killed run left it
     progress: Progress = field(default_factory=Progress)
     trajectory: TrajectoryRecorder | None = None
     explorer: Any = None  # bomc_bt.exploration.explorer.Explorer during a build

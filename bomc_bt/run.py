@@ -251,8 +251,8 @@ def run_monitor(world_path: str | Path, site_dir: str | Path, session: int, *, s
         perception = Perception(detector, segmenter, categories, config.projection, graph, store, session, grid,
                                 occlusion_check=config.association.mode != "paper")
         ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
-                             seed=seed, store=store, graph=graph, perception=perception)
-        ctx.extras.update(dock=world.start, resume=resume)
+                             seed=seed, store=store, graph=graph, perception=perception,
+                             dock=world.start, resume=resume)
 
         def interrupted(c: MissionContext) -> None:
             # Ctrl-C: stop the robot and write the report, but leave the session open in

@@ -201,8 +201,9 @@ def run_monitor_ros(
             store=store,
             graph=graph,
             perception=perception,
+            dock=dock,
+            resume=resume,
         )
-        ctx.extras.update(dock=dock, resume=resume)
 
         def interrupted(c: MissionContext) -> None:
             robot.cancel_all()
