@@ -98,12 +98,12 @@ def test_a_sliver_at_the_end_of_a_known_table_is_that_table():
     the 0.9 m gate its size earned."""
     g = ObjectGraph(AssociationParams(confirm_detections=1))
     g.associate([boxed("table", -0.6, -0.4, 0.6, 0.4)], [], 1, 0.0)  # side-on: the whole table
-    g._relocate(g.nodes[0], np.array([0.5, 0.0, 0.6]))  # later end-on views pulled it right
+    g.relocate(g.nodes[0], np.array([0.5, 0.0, 0.6]))  # later end-on views pulled it right
     events = g.associate([boxed("table", -0.6, -0.3, -0.3, 0.3)], [], 1, 5.0)
     assert set(g.nodes) == {0} and [e.kind for e in events if e.kind == "added"] == []
     plain = ObjectGraph(AssociationParams(confirm_detections=1, footprint_overlap=0.0))
     plain.associate([boxed("table", -0.6, -0.4, 0.6, 0.4)], [], 1, 0.0)
-    plain._relocate(plain.nodes[0], np.array([0.5, 0.0, 0.6]))
+    plain.relocate(plain.nodes[0], np.array([0.5, 0.0, 0.6]))
     plain.associate([boxed("table", -0.6, -0.3, -0.3, 0.3)], [], 1, 5.0)
     assert len(plain.nodes) == 2  # without footprints: the duplicate this prevents
 
@@ -123,7 +123,7 @@ def test_a_duplicate_on_the_observed_objects_floor_is_folded_in_even_when_expect
     g.associate([boxed("table", -0.6, -0.4, 0.6, 0.4)], [], 1, 0.0)
     g.nodes[0].observations = 6
     dup = Node(7, "table", np.array([-0.45, 0.0, 0.6]), 0.9, 1, 1, footprint=np.array([-0.6, -0.3, -0.3, 0.3]))
-    g._insert(dup)
+    g.insert(dup)
     g.next_id = 8
     events = g.associate([boxed("table", -0.6, -0.4, 0.6, 0.4)], [0, 7], 1, 1.0, in_view=[0, 7])
     assert set(g.nodes) == {0}

@@ -156,7 +156,7 @@ def test_node_footprints_persist_and_a_version_1_store_is_upgraded(tmp_path):
         assert np.allclose(graph.nodes[4].footprint, [4.4, 4.6, 5.6, 5.4])
         # the next session's association uses it: a sliver of the table's end (0.5 m from
         # the node, 0.9 m from where an end-on view would put it) is that table, not a new one
-        graph._relocate(graph.nodes[4], np.array([5.4, 5.0, 0.6]))
+        graph.relocate(graph.nodes[4], np.array([5.4, 5.0, 0.6]))
         sliver = Observation("table", np.array([4.5, 5.0, 0.6]), 0.9, 400, 0.2, box=np.array([4.4, 4.7, 4.6, 5.3]))
         events = graph.associate([sliver], [], 3, 1.0)
         assert [e.kind for e in events] == ["updated"] and set(graph.nodes) == {3, 4}

@@ -1,0 +1,51 @@
+"""The interface every association policy offers the object graph, and what policies share.
+
+A policy decides how one frame's observations change the graph: which node each
+observation confirms, which expected nodes are gone, which observations are new objects.
+It changes the graph only through :class:`~bomc_bt.graph.object_graph.ObjectGraph`'s
+public mutation API, so the spatial index and the change log stay in step whatever the
+policy does. The graph picks its policy once, from :attr:`AssociationParams.mode`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from bomc_bt.graph.geometry import dist2_scalar
+from bomc_bt.graph.records import Event, Node, Observation
+
+if TYPE_CHECKING:
+    from bomc_bt.graph.object_graph import ObjectGraph
+
+
+class AssociationPolicy(Protocol):
+    """How a frame's observations update the graph."""
+
+    # weight of height differences in every distance the graph measures (1: plain 3D distance)
+    vertical_weight: float
+
+    def gate(self, o: Observation) -> float:
+        """How far a node may be from ``o`` and still be the same object."""
+        ...
+
+    def associate(
+        self, graph: ObjectGraph, observations: Sequence[Observation], expected: Sequence[int], session: int,
+        stamp: float, in_view: Sequence[int] | None = None,
+    ) -> list[Event]:
+        """Update ``graph`` with one frame of ``session`` at robot time ``stamp``; the events in order.
+
+        ``expected``: ids of nodes the frame can confirm or deny; ``in_view``: ids of all
+        nodes inside the field of view, hidden ones included (a policy may ignore it).
+        """
+        ...
+
+
+def near_any(o: Observation, nodes: Sequence[Node], gate: float, scale: np.ndarray) -> bool:
+    """Whether a node of ``o``'s category among ``nodes`` lies within ``gate`` of it (scaled distance)."""
+    return any(
+        v.category == o.category and dist2_scalar(v.position * scale, o.position * scale) <= gate * gate
+        for v in nodes
+    )

@@ -1,0 +1,227 @@
+"""The object graph: the present nodes by id, their spatial index, and the change log.
+
+:class:`ObjectGraph` is the only code that changes nodes. Its public mutation API (add,
+remove, restore, relocate, touch, miss, set_confidence, add_observations, set_footprint,
+widen_gate, report) keeps the spatial index in step with the nodes and records every
+changed node for the site store (:meth:`ObjectGraph.drain_changed`). How a frame's
+observations change the graph is the business of the association policy chosen once from
+:attr:`AssociationParams.mode` (:mod:`bomc_bt.graph.paper`, :mod:`bomc_bt.graph.robust`),
+which works through this API only.
+
+Ids continue from ``max id + 1`` as in the paper and are never reused, also not the ids of
+removed nodes (the store passes the next id; ids are what the history is keyed on).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from bomc_bt.graph.association import AssociationPolicy
+from bomc_bt.graph.geometry import check_polygon
+from bomc_bt.graph.paper import PaperPolicy
+from bomc_bt.graph.records import PRESENT, REMOVED, AssociationParams, Event, Node, Observation
+from bomc_bt.graph.robust import RobustPolicy
+from bomc_bt.graph.spatial import SpatialIndex
+
+
+def make_policy(params: AssociationParams) -> AssociationPolicy:
+    """The association policy that ``params.mode`` names."""
+    return PaperPolicy(params) if params.mode == "paper" else RobustPolicy(params)
+
+
+class ObjectGraph:
+    """The live object graph (present nodes) with a spatial index, a change log and a policy."""
+
+    def __init__(self, params: AssociationParams, nodes: Iterable[Node] = (), next_id: int | None = None):
+        self.params = params
+        self.policy = make_policy(params)
+        self.nodes: dict[int, Node] = {}
+        self.index = SpatialIndex(params.largest_distance(), np.array([1.0, 1.0, self.policy.vertical_weight]))
+        self._pending: set[int] = set()  # present nodes with misses > 0
+        self._last_miss: dict[int, tuple[int, float]] = {}  # id -> (session, stamp) of last counted miss
+        self._removed_now: dict[int, Node] = {}  # removed in the current session (move candidates)
+        self._session: int | None = None
+        self._changed: dict[int, Node] = {}
+        self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
+        max_id = -1
+        for node in nodes:
+            max_id = max(max_id, node.id)
+            if node.state == PRESENT:
+                self.insert(node)
+        self.next_id = max(max_id + 1, next_id if next_id is not None else 0)
+
+    # ------------------------------------------------------------------ queries
+    def threshold(self, category: str) -> float:
+        """delta_c: the association distance of ``category``."""
+        return self.params.distance(category)
+
+    def gate(self, o: Observation) -> float:
+        """How far a node may be from ``o`` and still be the same object (see the policy)."""
+        return self.policy.gate(o)
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+    def nodes_in_polygon(self, polygon: np.ndarray, z_range: tuple[float, float] | None = None) -> list[Node]:
+        """Present nodes whose xy lies inside ``polygon`` (K, 2) (and z inside ``z_range``), by id."""
+        ids = self.index.ids_in_polygon(check_polygon(polygon))
+        if z_range is not None and len(ids):
+            z = np.array([self.nodes[int(i)].position[2] for i in ids])
+            ids = ids[(z >= z_range[0]) & (z <= z_range[1])]
+        return [self.nodes[int(i)] for i in np.sort(ids)]
+
+    def nearest(
+        self, category: str, position: np.ndarray, max_distance: float | None = None
+    ) -> tuple[Node | None, float]:
+        """Closest present node of ``category`` (and its distance), or (None, inf)."""
+        node_id, dist = self.index.nearest(category, position, max_distance)
+        return (None, dist) if node_id < 0 else (self.nodes[node_id], dist)
+
+    def within(self, category: str, position: np.ndarray, radius: float) -> list[tuple[Node, float]]:
+        """Present nodes of ``category`` within ``radius`` of ``position``, nearest first."""
+        ids, d2 = self.index.within(category, position, radius)
+        return [(self.nodes[int(i)], math.sqrt(float(d))) for i, d in zip(ids, d2, strict=True)]
+
+    def pending(self) -> list[int]:
+        """Ids of present nodes awaiting confirmation of their removal (robust mode)."""
+        return sorted(self._pending)
+
+    def removed_this_session(self) -> list[Node]:
+        """Nodes removed in the current session that may yet turn out to have moved."""
+        return list(self._removed_now.values())
+
+    def drift_since_report(self, v: Node) -> float:
+        """How far ``v`` moved since its last event (inf: it never had one in this process)."""
+        reported = self._reported.get(v.id)
+        return math.inf if reported is None else float(np.linalg.norm(v.position - reported))
+
+    def drain_changed(self) -> list[Node]:
+        """Nodes changed (incl. removed ones) since the last call, by id: what the store persists."""
+        changed = [self._changed[i] for i in sorted(self._changed)]
+        self._changed.clear()
+        return changed
+
+    # -------------------------------------------------------------- association
+    def associate(
+        self, observations: list[Observation], expected: list[int], session: int, stamp: float,
+        in_view: list[int] | None = None,
+    ) -> list[Event]:
+        """Update the graph with one frame (Algorithm 2 or its robust extension); returns the events in order.
+
+        ``expected``: nodes in the field of view that the frame can confirm or deny.
+        ``in_view`` (robust mode): all nodes inside the field-of-view polygon, hidden ones
+        included; only these may be folded into an observed node as hidden duplicates.
+        Nodes in neither list are never touched.
+        """
+        return self.policy.associate(self, observations, expected, session, stamp, in_view)
+
+    def begin(self, session: int, expected: Sequence[int]) -> list[int]:
+        """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.
+
+        A new session forgets the previous session's removals (they can no longer be moves).
+        """
+        if session != self._session:
+            self._removed_now.clear()
+            self._session = session
+        return [i for i in dict.fromkeys(expected) if i in self.nodes]
+
+    # ---------------------------------------------------------------- mutations
+    def insert(self, node: Node) -> None:
+        """Put an existing present node (loaded from the store) into the graph."""
+        if node.id in self.nodes:
+            raise ValueError(f"duplicate node id {node.id}")
+        self._index(node)
+        if node.misses > 0:
+            self._pending.add(node.id)
+
+    def add(self, o: Observation, session: int, stamp: float) -> Event:
+        """A new node, with the next id, where ``o`` was seen."""
+        node = Node(self.next_id, o.category, o.position.copy(), float(o.confidence), session, session,
+                    last_seen=stamp)
+        self.next_id += 1
+        self._index(node)
+        self._changed[node.id] = node
+        return self.report("added", node, session, stamp)
+
+    def remove(self, v: Node, session: int, stamp: float, merged: bool = False) -> Event:
+        """Take ``v`` off the graph. Unless it was ``merged`` into another node, it may come
+        back in this session as a move (:meth:`restore`)."""
+        self.index.delete(v.id, v.category, v.position)
+        del self.nodes[v.id]
+        v.state = REMOVED
+        if not merged:
+            self._removed_now[v.id] = v
+        self._pending.discard(v.id)
+        self._last_miss.pop(v.id, None)
+        self._changed[v.id] = v
+        return self.report("removed", v, session, stamp)
+
+    def restore(self, v: Node, position: np.ndarray) -> None:
+        """Bring back at ``position`` a node removed in this session: it had moved."""
+        del self._removed_now[v.id]
+        v.state = PRESENT
+        v.position = position
+        self._index(v)
+
+    def relocate(self, v: Node, position: np.ndarray) -> None:
+        """Move ``v`` to ``position``."""
+        position = np.asarray(position, dtype=float)
+        self.index.move(v.id, v.category, v.position, position)
+        v.position = position
+        self._changed[v.id] = v
+
+    def touch(self, v: Node, session: int, stamp: float, reset_misses: bool = True) -> None:
+        """Bookkeeping of a node an observation just confirmed: seen in ``session`` at
+        ``stamp`` once more and, with ``reset_misses``, no longer pending removal."""
+        v.last_session = session
+        v.last_seen = stamp
+        v.observations += 1
+        if reset_misses:
+            v.misses = 0
+            self._pending.discard(v.id)
+            self._last_miss.pop(v.id, None)
+        self._changed[v.id] = v
+
+    def miss(self, v: Node, session: int, stamp: float, interval: float) -> bool:
+        """Count one miss of an expected node that was not seen, unless one was counted less
+        than ``interval`` seconds ago in this session; returns whether it counted."""
+        last = self._last_miss.get(v.id)
+        if last is not None and last[0] == session and stamp - last[1] < interval:
+            return False
+        v.misses += 1
+        self._last_miss[v.id] = (session, stamp)
+        self._pending.add(v.id)
+        self._changed[v.id] = v
+        return True
+
+    def set_confidence(self, v: Node, confidence: float) -> None:
+        """Replace ``v``'s confidence."""
+        v.confidence = confidence
+        self._changed[v.id] = v
+
+    def add_observations(self, v: Node, count: int) -> None:
+        """Credit ``v`` with ``count`` more observations (those of a node merged into it)."""
+        v.observations += count
+        self._changed[v.id] = v
+
+    def set_footprint(self, v: Node, box: np.ndarray | None) -> None:
+        """Replace ``v``'s footprint (None: unknown)."""
+        v.footprint = box
+        self.index.set_box(v.id, box)
+        self._changed[v.id] = v
+
+    def widen_gate(self, v: Node, gate: float) -> None:
+        """Let ``v``'s own association gate grow to ``gate``: its object showed itself that big."""
+        self.index.widen_gate(v.id, gate)
+
+    def report(self, kind: str, v: Node, session: int, stamp: float, previous: np.ndarray | None = None) -> Event:
+        """The event ``kind`` of ``v`` for the store's history; remembers the position reported."""
+        self._reported[v.id] = v.position.copy()
+        return Event(kind, v.id, v.category, v.position.copy(), session, float(stamp), previous, v.confidence)
+
+    def _index(self, node: Node) -> None:
+        self.index.insert(node.id, node.category, node.position, node.footprint)
+        self.nodes[node.id] = node

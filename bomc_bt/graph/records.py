@@ -1,0 +1,132 @@
+"""The records the object graph is made of: nodes, observations, events, and the tunables.
+
+Plain dataclasses with no behaviour beyond normalising their arrays, so that the site
+store, the viewer and the evaluation can use them without the association machinery.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from bomc_bt.graph.footprints import box_or_none
+
+PRESENT = "present"
+REMOVED = "removed"
+EVENT_KINDS = ("added", "removed", "moved", "updated")
+
+
+@dataclass
+class Node:
+    """One object in the graph; ``position`` is (3,) in the map frame."""
+
+    id: int
+    category: str
+    position: np.ndarray
+    confidence: float
+    first_session: int
+    last_session: int
+    state: str = PRESENT  # "present" | "removed" (removed nodes live on in the store's history)
+    observations: int = 1  # times matched
+    misses: int = 0  # consecutive expected-but-unseen frames (robust mode)
+    # robust: floor-plane box (xmin, ymin, xmax, ymax) the object's points have covered, None unknown
+    footprint: np.ndarray | None = None
+    # robot time of the latest frame that matched (or added) the node in this process; None
+    # when it was loaded from the store and not seen since. Not persisted: it only says how
+    # stale a node has grown during the pass at hand (see monitoring.unverified_headings).
+    last_seen: float | None = None
+
+    def __post_init__(self) -> None:
+        self.position = np.asarray(self.position, dtype=float).reshape(3)
+        self.footprint = box_or_none(self.footprint)
+
+
+@dataclass
+class Observation:
+    """One detected object in one frame: category and map-frame centroid of its points."""
+
+    category: str
+    position: np.ndarray
+    confidence: float
+    n_points: int = 0
+    extent: float = 0.0  # horizontal spread (m) of the object's points about the centroid
+    box: np.ndarray | None = None  # floor-plane box (xmin, ymin, xmax, ymax) of those points
+    truncated: bool = False  # cut by the image border or an occluder: part of the object is missing
+
+    def __post_init__(self) -> None:
+        self.position = np.asarray(self.position, dtype=float).reshape(3)
+        self.box = box_or_none(self.box)
+
+
+@dataclass
+class Event:
+    """A change of the graph, as recorded in the store's history."""
+
+    kind: str  # "added" | "removed" | "moved" | "updated"
+    node_id: int
+    category: str
+    position: np.ndarray
+    session: int
+    stamp: float
+    previous: np.ndarray | None = None  # position before a move
+    confidence: float = 0.0
+
+
+@dataclass
+class AssociationParams:
+    """Tunables of association (``config/*.yaml`` key ``association``).
+
+    Fields marked "robust" only matter in robust mode (see :mod:`bomc_bt.graph.robust`).
+    """
+
+    default_distance: float = 0.7  # [m] delta: how close a same-category observation must be to be a node (paper: 0.7)
+    per_category: dict[str, float] = field(default_factory=dict)  # [m] delta_c overrides, by category name
+    mode: Literal["paper", "robust"] = "robust"  # [choice] "paper": Algorithm 2 as written; "robust": our extension
+    confirm_misses: int = 3  # [count] robust: consecutive counted misses before a node is removed
+    confirm_interval: float = 0.5  # [s] robust: robot time between two counted misses or two confirming sightings
+    move_radius: float = 3.0  # [m] robust: how far a removed or pending object may have moved and keep its id
+    position_smoothing: float = 0.3  # [-] robust: running-average weight of a new observation in a node's position
+    report_distance: float = 0.1  # [m] robust: drift since the last report that makes a refresh an "updated" event
+    vertical_weight: float = 0.5  # [-] robust: weight of height differences in distances (paper: 1)
+    extent_gate: float = 2.0  # [-] robust: a big object's own spread widens its gate, up to this times delta_c
+    confirm_detections: int = 2  # [count] robust: frames (confirm_interval apart) that must see a new object
+    tentative_ttl: float = 10.0  # [s] robust: how long a first sighting waits for its confirmation
+    footprint_overlap: float = 0.5  # [-] robust: box overlap (of the smaller box) that makes the same object; 0: off
+    # [m] robust: gap between a truncated view's box and a big object's footprint that still
+    # touches it (about the width of what hides the rest: a chair in front of a table)
+    footprint_touch: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not self.default_distance > 0:
+            raise ValueError("default_distance must be > 0")
+        for cat, d in self.per_category.items():
+            if not d > 0:
+                raise ValueError(f"per_category distance for {cat!r} must be > 0")
+        if self.mode not in ("paper", "robust"):
+            raise ValueError(f"mode must be 'paper' or 'robust', got {self.mode!r}")
+        if self.confirm_misses < 1:
+            raise ValueError("confirm_misses must be >= 1")
+        if self.confirm_interval < 0 or self.move_radius < 0 or self.report_distance < 0:
+            raise ValueError("confirm_interval, move_radius and report_distance must be >= 0")
+        if self.confirm_detections < 1 or self.tentative_ttl < 0:
+            raise ValueError("confirm_detections must be >= 1 and tentative_ttl >= 0")
+        if self.extent_gate < 1.0:
+            raise ValueError("extent_gate must be >= 1 (1 turns it off)")
+        if not 0.0 <= self.vertical_weight <= 1.0:
+            raise ValueError("vertical_weight must be in [0, 1]")
+        if not 0.0 < self.position_smoothing <= 1.0:
+            raise ValueError("position_smoothing must be in (0, 1]")
+        if not 0.0 <= self.footprint_overlap <= 1.0:
+            raise ValueError("footprint_overlap must be in [0, 1] (0 turns it off)")
+        if self.footprint_touch < 0:
+            raise ValueError("footprint_touch must be >= 0")
+
+    def distance(self, category: str) -> float:
+        """delta_c: the association distance of ``category``."""
+        return self.per_category.get(category, self.default_distance)
+
+    def largest_distance(self) -> float:
+        """The largest delta_c of any category: the spatial index's cell size."""
+        return max([self.default_distance, *self.per_category.values()])

@@ -1,0 +1,210 @@
+"""Robust association: our extension of Algorithm 2 where the paper names its own limitations
+(occlusion, missed detections, relocated objects).
+
+* *One-to-one matching.* Observations and nodes of a category are paired greedily by
+  distance (shortest pair first, ties by node id then observation order) among pairs
+  within delta_c. In the paper one detection can keep two nearby nodes alive; here a
+  duplicate node that never gets its own detection is eventually removed.
+* *Refresh.* A matched node moves towards the observation by a running average with
+  weight ``position_smoothing`` (centroids from single frames are noisy, a moving
+  average converges on the object), keeps the maximum confidence seen (the paper's
+  attribute is the detection score; the best view is the most informative), and
+  records ``last_session``, ``observations`` and resets ``misses``.
+* *Confirm before deleting.* An expected node that is not matched gains a miss, at most
+  one per ``confirm_interval`` seconds of robot time (so a burst of frames at one spot
+  counts once), and is removed only at ``confirm_misses`` consecutive misses. A single
+  missed detection (motion blur, a person walking past) no longer deletes an object.
+* *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in
+  ``confirm_detections`` frames.
+* *No duplicates.* An unmatched observation within delta_c of a same-category node
+  (which then has been matched by a closer observation) is absorbed, as in the paper.
+  Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
+* *Moves keep their id.* An unmatched observation farther than delta_c from every
+  same-category node but within ``move_radius`` of a same-category node that was removed
+  earlier in this session, or is pending removal (has misses), is taken to be that
+  object moved: it keeps its id and the event is ``moved`` with the previous position.
+  Identity across a relocation is what lets a user ask "where did chair 12 go?".
+  A wrong guess costs little: the object left behind gets a new id when it is seen.
+* *Updated events are sparse.* A refresh emits ``updated`` only the first time a node is
+  matched in a session or when its position drifted more than ``report_distance`` since
+  the last report, so the history does not grow by one row per node per frame; the
+  store reconciles exact values at the end of each session.
+
+Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object seen cut
+off by the image edge has its centroid too low.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bomc_bt.graph.association import near_any
+from bomc_bt.graph.extents import NodeExtents
+from bomc_bt.graph.footprints import union
+from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
+from bomc_bt.graph.tentative import TentativeSightings
+
+if TYPE_CHECKING:
+    from bomc_bt.graph.object_graph import ObjectGraph
+
+Pair = tuple[float, int, int]  # (squared distance, node id, observation index)
+
+
+class RobustPolicy:
+    """One-to-one matching, confirmation before adding and deleting, moves that keep ids."""
+
+    def __init__(self, params: AssociationParams):
+        self.params = params
+        self.vertical_weight = params.vertical_weight
+        self.extents = NodeExtents(params)
+        self.tentative = TentativeSightings(params, np.array([1.0, 1.0, params.vertical_weight]))
+
+    def gate(self, o: Observation) -> float:
+        """delta_c, widened by a large object's own spread (capped at ``extent_gate`` * delta_c).
+
+        Seen from another side, a table's visible-surface centroid moves by up to half its
+        length, and without this the same table becomes two nodes. Small objects keep delta_c.
+        """
+        delta = self.params.distance(o.category)
+        return max(delta, min(1.5 * o.extent, self.params.extent_gate * delta))
+
+    def associate(
+        self, graph: ObjectGraph, observations: Sequence[Observation], expected: Sequence[int], session: int,
+        stamp: float, in_view: Sequence[int] | None = None,
+    ) -> list[Event]:
+        """Match, refresh, count misses, place the unmatched, fold hidden duplicates."""
+        obs = observations
+        exp = graph.begin(session, expected)
+        self.tentative.begin(session)
+        events: list[Event] = []
+        near = self._near(graph, obs)  # one vectorised pass, graph as it stood at the frame's start
+        pairs: list[Pair] = []
+        for j, (ids, d2) in enumerate(near):
+            pairs.extend(zip(d2.tolist(), ids.tolist(), [j] * len(ids), strict=True))
+        pairs.sort()
+        matched_nodes: set[int] = set()
+        matched_obs: set[int] = set()
+        for _, vid, j in pairs:
+            if vid in matched_nodes or j in matched_obs:
+                continue
+            matched_nodes.add(vid)
+            matched_obs.add(j)
+            events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
+        for vid in exp:
+            if vid not in matched_nodes:
+                events.extend(self._miss(graph, graph.nodes[vid], session, stamp))
+        placed: list[Node] = []  # nodes added or moved in this frame
+        for j, o in enumerate(obs):
+            if j in matched_obs or len(near[j][0]) or near_any(o, placed, self.gate(o), graph.index.scale):
+                continue  # matched, or absorbed: a closer observation already matched that node
+            if o.truncated and (v := self.extents.touched_node(graph, o)) is not None:
+                # a part of a known object, cut off by an occluder (see NodeExtents.touched_node)
+                events.extend(self._refresh(graph, v, o, session, stamp, restart=False))
+                continue
+            if not self.tentative.confirmed(o, stamp, self.gate(o)):
+                continue
+            moved = self._move_candidate(graph, o)
+            events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
+            placed.append(graph.nodes[events[-1].node_id])
+            if not moved:
+                self.extents.grow(graph, placed[-1], o, self.gate(o))
+        hidden = set(in_view or ()) - set(exp)
+        events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp))
+        return events
+
+    def _near(self, graph: ObjectGraph, obs: Sequence[Observation]) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per observation: ids and squared distances of the nodes it may match."""
+        gates = [self.gate(o) for o in obs]
+        reaches = [max(self.extents.reach(o), g) for o, g in zip(obs, gates, strict=True)]
+        boxes = [o.box for o in obs] if self.extents.boxes else None
+        return graph.index.within_many([o.category for o in obs], [o.position for o in obs], reaches, gates,
+                                       boxes, self.params.footprint_overlap)
+
+    def _merge_hidden_duplicates(self, graph: ObjectGraph, pairs: list[Pair], matched: set[int], hidden: set[int],
+                                 obs: Sequence[Observation], session: int, stamp: float) -> list[Event]:
+        """Fold into the matched node any same-category node that the same observation also
+        covers: unmatched and either hidden (in view, not expected) or lying on the floor
+        area the observation's own points cover.
+
+        Two views of a big object from opposite sides can leave two nodes a little over
+        delta_c apart; as their running averages converge, the second ends up *inside* the
+        object, where the depth image hides it, so it is never expected and never missed.
+        Likewise a sliver of a table seen past an obstacle can start a node at one end of
+        a table whose node sits at the other. An observation that covers both settles it:
+        the node seen more often keeps its id (position averaged by observations), the
+        other is removed. A node that was expected but unmatched and lies elsewhere is not
+        touched: it may be a second object, and the miss count decides.
+        """
+        events: list[Event] = []
+        best: dict[int, int] = {}
+        for _, vid, j in pairs:  # sorted by distance: the observation each matched node got
+            if vid in matched and j not in best.values() and vid not in best:
+                best[vid] = j
+        for vid, j in best.items():
+            o = obs[j]
+            covered = set(self.extents.overlapped(graph, o))
+            covered |= {v.id for v, _ in graph.within(o.category, o.position, self.gate(o)) if v.id in hidden}
+            for oid in sorted(covered):
+                v, other = graph.nodes.get(vid), graph.nodes.get(oid)
+                if v is None or other is None or oid == vid or oid in matched:
+                    continue
+                keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
+                total = max(keep.observations + drop.observations, 1)
+                graph.relocate(keep, (keep.position * keep.observations + drop.position * drop.observations) / total)
+                graph.add_observations(keep, drop.observations)
+                graph.set_confidence(keep, max(keep.confidence, drop.confidence))
+                graph.set_footprint(keep, union(keep.footprint, drop.footprint))
+                events.append(graph.remove(drop, session, stamp, merged=True))  # merged, never "moved" back
+                events.append(graph.report("updated", keep, session, stamp))
+                matched.add(keep.id)
+        return events
+
+    def _refresh(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float,
+                 restart: bool | None = None) -> list[Event]:
+        """Move ``v`` towards ``o`` and count it seen; the "updated" event if one is due."""
+        w = self.params.position_smoothing
+        first_in_session = v.last_session != session
+        self.extents.grow(graph, v, o, self.gate(o), restart=first_in_session if restart is None else restart)
+        target = (1.0 - w) * v.position + w * o.position
+        if self.extents.is_big(v):  # the middle of the floor it covers, not of its visible faces
+            target[:2] = (v.footprint[:2] + v.footprint[2:]) / 2.0
+        graph.relocate(v, target)
+        graph.set_confidence(v, max(v.confidence, float(o.confidence)))
+        graph.touch(v, session, stamp)
+        if first_in_session or graph.drift_since_report(v) > self.params.report_distance:
+            return [graph.report("updated", v, session, stamp)]
+        return []
+
+    def _miss(self, graph: ObjectGraph, v: Node, session: int, stamp: float) -> list[Event]:
+        """Count a miss of the expected, unmatched ``v``; its removal once confirmed."""
+        if graph.miss(v, session, stamp, self.params.confirm_interval) and v.misses >= self.params.confirm_misses:
+            return [graph.remove(v, session, stamp)]
+        return []
+
+    def _move_candidate(self, graph: ObjectGraph, o: Observation) -> Node | None:
+        """Nearest same-category node removed this session or pending removal, within move_radius."""
+        best: tuple[float, int, Node] | None = None
+        pending = (graph.nodes[i] for i in graph.pending())
+        for v in (*graph.removed_this_session(), *pending):
+            if v.category != o.category:
+                continue
+            d = float(np.linalg.norm((v.position - o.position) * graph.index.scale))
+            if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]):
+                best = (d, v.id, v)
+        return None if best is None else best[2]
+
+    def _move(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float) -> Event:
+        """``v`` moved to where ``o`` saw it: same id, a "moved" event with where it was."""
+        previous = v.position.copy()
+        if v.state == REMOVED:
+            graph.restore(v, o.position.copy())
+        else:
+            graph.relocate(v, o.position.copy())
+        if self.extents.boxes:  # where it stood before says nothing about its size here
+            graph.set_footprint(v, o.box)
+        graph.set_confidence(v, float(o.confidence))
+        graph.touch(v, session, stamp)
+        return graph.report("moved", v, session, stamp, previous)
