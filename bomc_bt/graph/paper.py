@@ -42,8 +42,7 @@ class PaperPolicy:
         stamp: float, in_view: Sequence[int] | None = None,
     ) -> list[Event]:
         """Algorithm 2 on one frame (``in_view`` plays no part)."""
-        obs = observations
-        exp = graph.begin(session, expected)
+        obs, exp = observations, graph.begin(session, expected)
         events: list[Event] = []
         unmatched = np.ones(len(obs), dtype=bool)
         hits = self._expected_hits(graph, obs, exp)

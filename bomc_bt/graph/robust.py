@@ -76,9 +76,8 @@ class RobustPolicy:
         stamp: float, in_view: Sequence[int] | None = None,
     ) -> list[Event]:
         """Match, refresh, count misses, place the unmatched, fold hidden duplicates."""
-        obs = observations
-        exp = graph.begin(session, expected)
         self.tentative.begin(session)
+        obs, exp = observations, graph.begin(session, expected)
         events: list[Event] = []
         near = self._near(graph, obs)  # one vectorised pass, graph as it stood at the frame's start
         pairs: list[Pair] = []
