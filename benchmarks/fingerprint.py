@@ -50,8 +50,9 @@ def fingerprint(world: Path, sessions: int, seed: int) -> list[str]:
             lines.append(f"session {n} succeeded={result.succeeded} sim_time={result.sim_time:.3f} "
                          f"ticks={result.ticks} f1={f1}")
             lines.append(f"session {n} nodes {_table(db, 'SELECT * FROM nodes ORDER BY id')}")
-            lines.append(f"session {n} history "
-                         f"{_table(db, 'SELECT id,session,stamp,kind,category,x,y,z,confidence,px,py,pz FROM node_history ORDER BY seq')}")
+            history = _table(db, "SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz "
+                                 "FROM node_history ORDER BY seq")
+            lines.append(f"session {n} history {history}")
             lines.append(f"session {n} plan.json {_sha((site / 'plan.json').read_bytes())}")
     return lines
 
