@@ -24,5 +24,18 @@ class BomcError(Exception):
         return ": ".join([*parts, self.message])
 
 
+def read_input_text(path: Path, what: str) -> str:
+    """The text of a user's input file; a missing or unreadable one is a one-line BomcError.
+
+    ``what`` names the kind of file in the message ("world file not found").
+    """
+    try:
+        return path.read_text()
+    except FileNotFoundError:
+        raise BomcError(f"{what} file not found", path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BomcError(f"cannot read {what} file ({type(exc).__name__})", path) from None
+
+
 class MissionFailed(Exception):
     """The mission ran but could not complete (exit code 1, not a user's mistake)."""

@@ -2,10 +2,10 @@
 
 A monitor mission starts with the robot somewhere in a map built days earlier. On ROS,
 AMCL answers "where am I"; in the simulator this module does, by correlative scan
-matching against a likelihood field (Olson 2009): every beam endpoint scores
-``exp(-d^2 / 2 sigma^2)`` where ``d`` is its distance to the nearest occupied cell, and a
-pose scores the mean over its beams. Unknown cells are not obstacles: a saved map has
-unknown space beyond its walls, and a beam never ends there in a correct pose.
+matching against a likelihood field (Olson 2009, scored by :mod:`bomc_bt.scan_likelihood`):
+every beam endpoint scores ``exp(-d^2 / 2 sigma^2)`` where ``d`` is its distance to the
+nearest occupied cell, and a pose scores the mean over its beams. This module is the
+search: which poses to score, and when the best one is trustworthy.
 
 The search is coarse to fine so that it fits inside a tick loop: a coarse grid over the
 search window (cell-aligned positions, so every beam is an integer cell offset and a
@@ -25,12 +25,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import LaserScan
+from bomc_bt.scan_likelihood import Beams, LikelihoodField, to_world, valid_beams
 
 
 @dataclass
@@ -110,42 +110,6 @@ class _Level:
 
 
 @dataclass
-class _Beams:
-    """Endpoints of the beams that returned, in the robot frame."""
-
-    xy: np.ndarray  # (B, 2)
-
-    @property
-    def count(self) -> int:
-        return int(self.xy.shape[0])
-
-    def subsample(self, n: int) -> _Beams:
-        """Evenly keep ``n`` beams (all of them when there are fewer)."""
-        if self.count <= n:
-            return self
-        return _Beams(self.xy[np.unique(np.round(np.linspace(0, self.count - 1, n)).astype(np.int64))])
-
-    @property
-    def reach(self) -> float:
-        return float(np.hypot(self.xy[:, 0], self.xy[:, 1]).max(initial=0.0))
-
-    def for_grid(self, sigma: float, angular_step: float, min_count: int) -> _Beams:
-        """The beams a grid with this yaw step can score fairly.
-
-        A yaw off by half a step moves an endpoint at range r by r * step / 2; past the
-        range where that exceeds ``sigma`` a beam's likelihood says more about the grid's
-        quantisation than about the pose, so a coarse grid ignores those beams (keeping
-        at least the ``min_count`` nearest, for large halls).
-        """
-        r = np.hypot(self.xy[:, 0], self.xy[:, 1])
-        keep = r <= sigma / (0.5 * angular_step)
-        if np.count_nonzero(keep) < min(min_count, self.count):
-            keep = np.zeros(self.count, dtype=bool)
-            keep[np.argsort(r, kind="stable")[:min_count]] = True
-        return self if keep.all() else _Beams(self.xy[keep])
-
-
-@dataclass
 class ScanMatcher:
     """Correlative scan matching of a :class:`LaserScan` against one saved map."""
 
@@ -153,10 +117,7 @@ class ScanMatcher:
     params: RelocalizationParams = field(default_factory=RelocalizationParams)
 
     def __post_init__(self) -> None:
-        self._res = float(self.grid.resolution)
-        self._dist = _surface_distance(self.grid)
-        self._occupied = self.grid.occupied_mask()
-        self._fields: dict = {}
+        self.likelihood = LikelihoodField(self.grid)
         self._candidate_cells: tuple[np.ndarray, np.ndarray] | None = None
 
     # -- public ----------------------------------------------------------------------
@@ -168,7 +129,7 @@ class ScanMatcher:
         ``search_angle`` of it are considered; otherwise every free place of the map is.
         """
         p = self.params
-        beams = _valid_beams(scan)
+        beams = valid_beams(scan)
         fallback = hint if hint is not None else Pose2D(*self.grid.cell_to_world(0, 0), 0.0)
         if beams.count < p.min_beams:
             return RelocalizationResult(fallback, 0.0, False,
@@ -207,14 +168,14 @@ class ScanMatcher:
 
         Mean beam likelihood, a beam that crosses a mapped wall counting as 0.
         """
-        beams = _valid_beams(scan).subsample(self.params.final_beams)
+        beams = valid_beams(scan).subsample(self.params.final_beams)
         return self._checked(pose, beams)[1]
 
     # -- search ----------------------------------------------------------------------
     def _search(self, rows, cols, yaws, coarse, beams, levels, n_keep) -> RelocalizationResult:
         p = self.params
         sigma_c, beams_c = coarse
-        scores = self._coarse_scores(rows, cols, yaws, beams_c, sigma_c)  # (Y, N)
+        scores = self.likelihood.coarse_scores(rows, cols, yaws, beams_c, sigma_c)  # (Y, N)
         xs, ys = self.grid.cell_to_world(rows, cols)
         nms = (0.5 * p.ambiguity_distance, 0.5 * p.ambiguity_angle)
         cand = _top_distinct(scores, xs, ys, yaws, n_keep, *nms)
@@ -235,7 +196,7 @@ class ScanMatcher:
         final_score = self._checked(final_pose, beams.subsample(p.final_beams))[1]
         return _verdict(final_pose, final_score, best_score, runner, beams.count, p)
 
-    def _checked(self, pose: Pose2D, beams: _Beams) -> tuple[Pose2D, float]:
+    def _checked(self, pose: Pose2D, beams: Beams) -> tuple[Pose2D, float]:
         """``pose`` and its score, where a beam that passes through a mapped wall scores 0.
 
         The likelihood field only asks "does each endpoint lie on a wall"; a wrong pose
@@ -246,29 +207,14 @@ class ScanMatcher:
         """
         if beams.count == 0:
             return pose, 0.0
-        wx, wy = _to_world(pose, beams.xy)
-        lik = self._lookup(wx, wy, self.params.sigma)
+        wx, wy = to_world(pose, beams.xy)
+        lik = self.likelihood.lookup(wx, wy, self.params.sigma)
         length = np.hypot(beams.xy[:, 0], beams.xy[:, 1]) - self.params.see_through_tolerance
-        through = self._crosses_wall(pose, wx, wy, length)
+        through = self.likelihood.crosses_wall(pose, wx, wy, length)
         return pose, float(np.mean(np.where(through, 0.0, lik)))
 
-    def _crosses_wall(self, pose: Pose2D, wx: np.ndarray, wy: np.ndarray, length: np.ndarray) -> np.ndarray:
-        """Per ray from ``pose`` towards (wx, wy): an occupied cell within ``length``?"""
-        if len(wx) == 0:
-            return np.zeros(0, dtype=bool)
-        dx, dy = wx - pose.x, wy - pose.y
-        r = np.maximum(np.hypot(dx, dy), 1e-9)
-        step = 0.5 * self._res
-        t = np.arange(step, max(float(length.max()), step), step)
-        px = pose.x + (dx / r)[:, None] * t[None, :]
-        py = pose.y + (dy / r)[:, None] * t[None, :]
-        rows, cols = self.grid.world_to_cell(px, py)
-        inside = self.grid.in_bounds(rows, cols) & (t[None, :] < length[:, None])
-        occ = np.zeros(rows.shape, dtype=bool)
-        occ[inside] = self._occupied[rows[inside], cols[inside]]
-        return occ.any(axis=1)
 
-    def _refine(self, pose: Pose2D, beams: _Beams, levels: list[_Level]) -> tuple[Pose2D, float]:
+    def _refine(self, pose: Pose2D, beams: Beams, levels: list[_Level]) -> tuple[Pose2D, float]:
         """Grid search around ``pose`` at each level in turn (bilinear field lookups)."""
         score = -1.0
         for lv in levels:
@@ -282,7 +228,7 @@ class ScanMatcher:
                 di, dj = np.meshgrid(offs, offs, indexing="ij")
                 xy = np.stack([pose.x + lv.lin_step * di.ravel(), pose.y + lv.lin_step * dj.ravel()], axis=1)
                 yaws = pose.yaw + np.arange(-n_ang, n_ang + 1) * lv.ang_step
-                s = self._bilinear_scores(yaws, xy, used, lv.sigma)
+                s = self.likelihood.bilinear_scores(yaws, xy, used, lv.sigma, self.params.wall_probe)
                 iy, ix = np.unravel_index(int(np.argmax(s)), s.shape)
                 pose = Pose2D(float(xy[ix, 0]), float(xy[ix, 1]), wrap_angle(float(yaws[iy])))
                 score = float(s[iy, ix])
@@ -295,8 +241,8 @@ class ScanMatcher:
     def _local_cells(self, hint: Pose2D) -> tuple[np.ndarray, np.ndarray]:
         """Cell-aligned positions on the coarse step inside the search disc and the map."""
         p = self.params
-        k = max(1, int(round(p.linear_step / self._res)))
-        n = int(math.ceil(p.search_radius / (k * self._res)))
+        k = max(1, int(round(p.linear_step / self.likelihood.resolution)))
+        n = int(math.ceil(p.search_radius / (k * self.likelihood.resolution)))
         r0, c0 = self.grid.world_to_cell(hint.x, hint.y)
         dr, dc = np.meshgrid(np.arange(-n, n + 1) * k, np.arange(-n, n + 1) * k, indexing="ij")
         rows, cols = (int(r0) + dr).ravel(), (int(c0) + dc).ravel()
@@ -311,123 +257,16 @@ class ScanMatcher:
         """Free cells with clearance on a coarse lattice: where the robot can stand."""
         if self._candidate_cells is None:
             p = self.params
-            k = max(1, int(round(p.global_linear_step / self._res)))
-            ok = (self.grid.data == 0) & (self._dist >= p.global_clearance)
+            k = max(1, int(round(p.global_linear_step / self.likelihood.resolution)))
+            ok = (self.grid.data == 0) & (self.likelihood.surface_distance >= p.global_clearance)
             lattice = np.zeros_like(ok)
             lattice[k // 2::k, k // 2::k] = True
             self._candidate_cells = np.nonzero(ok & lattice)
         return self._candidate_cells
 
     # -- scoring -----------------------------------------------------------------------
-    def _field(self, sigma: float, pad: int) -> np.ndarray:
-        """Likelihood field for ``sigma``, zero-padded by ``pad`` cells (float32, cached)."""
-        key = (round(sigma, 6), pad)
-        if key not in self._fields:
-            lik = np.exp(-0.5 * (self._dist / sigma) ** 2).astype(np.float32)
-            self._fields[key] = np.pad(lik, pad)
-        return self._fields[key]
-
-    def _coarse_scores(self, rows, cols, yaws, beams: _Beams, sigma: float) -> np.ndarray:
-        """Scores (Y, N) for cell-centred positions: one integer offset per beam and yaw."""
-        pad = 64 * int(math.ceil((beams.reach / self._res + 2) / 64))
-        fld = self._field(sigma, pad)
-        width = fld.shape[1]
-        flat = fld.ravel()
-        base = (rows.astype(np.int64) + pad) * width + (cols.astype(np.int64) + pad)
-        out = np.empty((len(yaws), len(base)), dtype=np.float32)
-        bx, by = beams.xy[:, 0], beams.xy[:, 1]
-        for i, yaw in enumerate(yaws):
-            c, s = math.cos(yaw), math.sin(yaw)
-            dc = np.floor((c * bx - s * by) / self._res + 0.5).astype(np.int64)
-            dr = np.floor((s * bx + c * by) / self._res + 0.5).astype(np.int64)
-            idx = (dr * width + dc)[:, None] + base[None, :]
-            out[i] = flat.take(idx).mean(axis=0)
-        return out
-
-    def _bilinear_scores(self, yaws, xy, beams: _Beams, sigma: float) -> np.ndarray:
-        """Scores (Y, N) for arbitrary positions ``xy`` (N, 2), interpolating the field.
-
-        A beam also scores 0 when a point shortly before its end lies in an occupied
-        cell: a cheap stand-in for :meth:`_checked`'s ray test that stops a pose from
-        sliding through a thin wall so that endpoints land on its far face.
-        """
-        yaws = np.asarray(yaws, dtype=float)
-        bx, by = beams.xy[:, 0], beams.xy[:, 1]
-        c, s = np.cos(yaws)[:, None, None], np.sin(yaws)[:, None, None]
-        rx = c * bx[None, :, None] - s * by[None, :, None]  # (Y, B, 1)
-        ry = s * bx[None, :, None] + c * by[None, :, None]
-        px, py = xy[None, None, :, 0], xy[None, None, :, 1]  # (1, 1, N)
-        lik = self._lookup(rx + px, ry + py, sigma)  # (Y, B, N)
-        if self.params.wall_probe:
-            r = np.maximum(np.hypot(bx, by), 1e-9)
-            back = np.stack([np.maximum(r - d, 0.0) / r for d in self.params.wall_probe])  # (K, B)
-            occ = self._occupied_padded()
-            h, w = occ.shape
-            ox, oy = self.grid.origin
-            f = back[:, None, :, None]  # (K, 1, B, 1)
-            col = np.clip((f * rx[None] + px[None] - ox) / self._res + 1.0, 0, w - 1).astype(np.int64)
-            row = np.clip((f * ry[None] + py[None] - oy) / self._res + 1.0, 0, h - 1).astype(np.int64)
-            blocked = occ.ravel().take(row * w + col).any(axis=0)  # (Y, B, N)
-            lik = np.where(blocked, 0.0, lik)
-        return lik.mean(axis=1)
-
-    def _occupied_padded(self) -> np.ndarray:
-        if "occ" not in self._fields:
-            self._fields["occ"] = np.pad(self._occupied, 1)
-        return self._fields["occ"]
-
-    def _lookup(self, wx: np.ndarray, wy: np.ndarray, sigma: float) -> np.ndarray:
-        """Bilinearly interpolated likelihood at map-frame points (0 outside the map)."""
-        fld = self._field(sigma, 1)
-        h, w = fld.shape
-        flat = fld.ravel()
-        ox, oy = self.grid.origin
-        # Continuous coordinates with cell centres at integers, in the 1-cell padded field.
-        fx = np.clip((wx - ox) / self._res + 0.5, 0.0, w - 1.000001)
-        fy = np.clip((wy - oy) / self._res + 0.5, 0.0, h - 1.000001)
-        x0, y0 = fx.astype(np.int64), fy.astype(np.int64)
-        tx, ty = fx - x0, fy - y0
-        i00 = y0 * w + x0
-        return ((1 - ty) * ((1 - tx) * flat.take(i00) + tx * flat.take(i00 + 1))
-                + ty * ((1 - tx) * flat.take(i00 + w) + tx * flat.take(i00 + w + 1)))
-
 
 # -- helpers -------------------------------------------------------------------------------
-def _surface_distance(grid: OccupancyGrid) -> np.ndarray:
-    """Distance (m) from each cell centre to the nearest obstacle *surface* a beam can hit.
-
-    Outside obstacles that is the distance to the nearest occupied cell; inside, the
-    distance to the nearest free cell, so the field peaks on a wall's face and not all
-    through a thick wall (a robot seeing one side of a 20 cm wall must not be free to
-    slide 20 cm into it). Both are measured to the cell edge, half a cell nearer than
-    the centre, because a beam ends where the wall begins.
-    """
-    occupied = grid.occupied_mask()
-    free = grid.free_mask()
-    big = np.float32(1e6)
-    d_out = cv2.distanceTransform((~occupied).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    if not occupied.any():
-        d_out[:] = big
-    d_in = cv2.distanceTransform((~free).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    if not free.any():
-        d_in[:] = big
-    dist = np.where(occupied, d_in, d_out).astype(np.float64) * grid.resolution
-    return np.maximum(dist - 0.5 * grid.resolution, 0.0)
-
-
-def _valid_beams(scan: LaserScan) -> _Beams:
-    """Endpoints of beams that hit something (finite, positive, below range_max)."""
-    r = np.asarray(scan.ranges, dtype=np.float64)
-    a = scan.angles
-    with np.errstate(invalid="ignore"):
-        ok = np.isfinite(r) & (r > 0.0) & (r < scan.range_max)
-    return _Beams(np.stack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok])], axis=1))
-
-
-def _to_world(pose: Pose2D, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-    return pose.x + c * xy[:, 0] - s * xy[:, 1], pose.y + s * xy[:, 0] + c * xy[:, 1]
-
 
 def _top_distinct(scores, xs, ys, yaws, n, min_dist, min_angle) -> list[Pose2D]:
     """Up to ``n`` best (yaw, position) entries that are pairwise distinct (greedy NMS)."""

@@ -7,7 +7,8 @@ clearance, from which lethal cells and a decaying inflation cost follow, as in a
 costmap with ``inflation_radius``); the search itself walks flat Python lists on a
 planning grid coarser than the map (0.1 m by default), with a one-cell blocked border
 so neighbour indices never wrap. The raw grid path is then shortened by line-of-sight
-smoothing that never trades away clearance.
+smoothing that never trades away clearance (:mod:`bomc_bt.path_smoothing`); the
+clearance itself comes from :mod:`bomc_bt.costmap`.
 """
 
 from __future__ import annotations
@@ -20,7 +21,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from bomc_bt.costmap import clearance_fields
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.path_smoothing import smooth_cells
+from bomc_bt.polyline import dedupe_waypoints, path_clear_of, path_length
+
+# path_clear_of and path_length live in bomc_bt.polyline; the simulator imports them from here.
+__all__ = ["GridPlanner", "PlannerParams", "path_clear_of", "path_length"]
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -62,7 +69,7 @@ class GridPlanner:
             if extra_obstacles.shape != grid.data.shape:
                 raise ValueError("extra_obstacles must have the grid's shape")
             obstacles = obstacles | extra_obstacles
-        clearance, unknown = self._coarse_fields(obstacles, grid.unknown_mask(), grid.resolution, factor)
+        clearance, unknown = clearance_fields(obstacles, grid.unknown_mask(), grid.resolution, factor)
         p = self.params
         lethal = clearance < p.robot_radius
         if not p.allow_unknown:
@@ -84,33 +91,6 @@ class GridPlanner:
         data[unknown & ~lethal] = -1
         self.planning_grid = OccupancyGrid(data, self.resolution, tuple(grid.origin))
         self._labels: np.ndarray | None = None
-
-    # -- precomputation ------------------------------------------------------------------
-    @staticmethod
-    def _coarse_fields(obstacles: np.ndarray, unknown: np.ndarray, res: float, factor: int):
-        """Clearance (m) at each planning cell's centre, and which planning cells are unknown.
-
-        The distance transform runs on the fine map (exact walls), then area-averaging down
-        to the planning grid reads it at the coarse cell centre. Half a fine cell is taken
-        off because the transform measures to obstacle cell centres, not their faces.
-        """
-        h, w = obstacles.shape
-        ph, pw = (-h) % factor, (-w) % factor
-        free = np.pad((~obstacles).astype(np.uint8), ((0, ph), (0, pw)), mode="edge")
-        if free.all():
-            dist = np.full(free.shape, np.inf, dtype=np.float32)
-        else:
-            dist = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * res
-            dist = np.maximum(dist - 0.5 * res, 0.0)
-        unk = np.pad(unknown.astype(np.float32), ((0, ph), (0, pw)), constant_values=1.0)
-        if factor > 1:
-            size = (free.shape[1] // factor, free.shape[0] // factor)
-            if np.isfinite(dist).all():
-                dist = cv2.resize(dist, size, interpolation=cv2.INTER_AREA)
-            else:
-                dist = np.full((size[1], size[0]), np.inf, dtype=np.float32)
-            unk = cv2.resize(unk, size, interpolation=cv2.INTER_AREA)
-        return dist.astype(np.float64), unk > 0.5
 
     # -- coordinates ---------------------------------------------------------------------
     def cell(self, xy) -> tuple[int, int]:
@@ -202,12 +182,12 @@ class GridPlanner:
         cells = self._astar(s, g)
         if cells is None:
             return None
-        cells = self._smooth(cells)
+        cells = smooth_cells(cells, self._last_costs, self._cost_array)
         middle = [self._centre(r, c) for r, c in cells[1:-1]]
         head = [start_xy] if self.traversable(start_xy) else [start_xy, self._centre(*cells[0])]
         tail = [goal_xy] if self.traversable(goal_xy) else [self._centre(*cells[-1])]
         pts = head + middle + tail
-        return _dedupe(np.array(pts, dtype=float))
+        return dedupe_waypoints(np.array(pts, dtype=float))
 
     def connected(self, a: tuple[int, int], b: tuple[int, int]) -> bool:
         """Whether two traversable planning cells are in the same 8-connected component.
@@ -320,94 +300,3 @@ class GridPlanner:
         """Value of a planning-grid field (e.g. from :meth:`distances_from`) at ``xy``."""
         r, c = self.cell(xy)
         return float(field[r, c]) if self._inside(r, c) else math.inf
-
-    # -- smoothing -----------------------------------------------------------------------
-    def _smooth(self, cells: list[tuple[int, int]]) -> list[tuple[int, int]]:
-        """Greedy line-of-sight shortcutting that never makes the path more expensive.
-
-        A shortcut from cell i to cell k is taken when every cell on the segment is
-        traversable and the segment's clearance-weighted cost is no higher than the cost
-        A* paid between the two cells, so smoothing straightens paths without pulling
-        them back towards walls.
-        """
-        if len(cells) <= 2:
-            return cells
-        arr = np.array(cells)
-        g = np.asarray(self._last_costs) if len(self._last_costs) == len(cells) else None
-        out = [cells[0]]
-        i, n = 0, len(cells)
-        while i < n - 1:
-            j = i + 1
-            step = 1
-            # Exponential then linear search for the farthest acceptable cell.
-            while j + step < n:
-                k = j + step
-                budget = (g[k] - g[i]) * (1.0 + 1e-6) + 1e-9 if g is not None else math.inf
-                if self._segment_cost(arr[i], arr[k]) <= budget:
-                    j = k
-                    step *= 2
-                else:
-                    if step == 1:
-                        break
-                    step = 1
-            out.append(cells[j])
-            i = j
-        return out
-
-    def _segment_cost(self, a: np.ndarray, b: np.ndarray) -> float:
-        """Cost of driving straight from cell a to cell b (inf through lethal cells)."""
-        n = int(max(abs(b[0] - a[0]), abs(b[1] - a[1]))) * 2 + 1
-        t = np.linspace(0.0, 1.0, n)
-        r = np.rint(a[0] + (b[0] - a[0]) * t).astype(np.int64)
-        c = np.rint(a[1] + (b[1] - a[1]) * t).astype(np.int64)
-        costs = self._cost_array[r, c]
-        if not np.isfinite(costs).all():
-            return math.inf
-        length = math.hypot(float(b[0] - a[0]), float(b[1] - a[1]))
-        # Trapezoid over the samples, excluding the start cell (A* charges arrival cells).
-        mean = float((costs[1:].sum() + 0.0) / max(n - 1, 1)) if n > 1 else float(costs[0])
-        return length * mean
-
-
-def path_clear_of(obstacles: np.ndarray, grid: OccupancyGrid, path: np.ndarray, radius: float,
-                  skip: float = 0.0) -> bool:
-    """Whether no ``obstacles`` cell (bool mask on ``grid``) lies within ``radius`` of a polyline.
-
-    A cheap test for "is my plan still good?" that needs no costmap rebuild: the path is
-    sampled every cell and a disc of cell offsets is looked up around each sample. The
-    first ``skip`` metres are ignored (the robot itself may be close to a wall).
-    """
-    path = np.asarray(path, dtype=float)
-    if len(path) < 2:
-        return True
-    lengths = np.hypot(*np.diff(path, axis=0).T)
-    cum = np.concatenate([[0.0], np.cumsum(lengths)])
-    s = np.arange(skip, cum[-1] + 1e-9, grid.resolution)
-    if len(s) == 0:
-        return True
-    r, c = grid.world_to_cell(np.interp(s, cum, path[:, 0]), np.interp(s, cum, path[:, 1]))
-    k = int(math.ceil(radius / grid.resolution))
-    dr, dc = np.mgrid[-k:k + 1, -k:k + 1]
-    disc = (dr**2 + dc**2) * grid.resolution**2 <= radius**2
-    rr = r[:, None] + dr[disc][None, :]
-    cc = c[:, None] + dc[disc][None, :]
-    inside = (rr >= 0) & (rr < grid.height) & (cc >= 0) & (cc < grid.width)
-    hits = obstacles[np.clip(rr, 0, grid.height - 1), np.clip(cc, 0, grid.width - 1)] & inside
-    return not bool(hits.any())
-
-
-def path_length(path: np.ndarray) -> float:
-    """Sum of segment lengths of an (N, 2) polyline."""
-    path = np.asarray(path, dtype=float)
-    if len(path) < 2:
-        return 0.0
-    return float(np.hypot(*np.diff(path[:, :2], axis=0).T).sum())
-
-
-def _dedupe(path: np.ndarray) -> np.ndarray:
-    """Drop consecutive duplicate waypoints (keeps at least one)."""
-    if len(path) < 2:
-        return path
-    keep = np.ones(len(path), dtype=bool)
-    keep[1:] = np.hypot(*np.diff(path, axis=0).T) > 1e-9
-    return path[keep]

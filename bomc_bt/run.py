@@ -153,7 +153,7 @@ def make_perception(config: Config, seed: int, base_dir: Path):
     """The detector and segmenter named by ``perception.backend``."""
     if config.perception.backend == "onnx":
         from bomc_bt.params import from_mapping
-        from bomc_bt.perception.onnx_common import OnnxPerceptionParams, build_onnx_backend
+        from bomc_bt.perception.onnx_backend import OnnxPerceptionParams, build_onnx_backend
 
         params = from_mapping(OnnxPerceptionParams, config.perception.onnx, config.source[-1], "perception.onnx")
         return build_onnx_backend(params, base_dir)

@@ -26,31 +26,27 @@ from bomc_bt.atomic import atomic_write
 from bomc_bt.errors import BomcError
 
 
+class _SiteFile:
+    """A read-only attribute of :class:`Site`: the path of one fixed file in the site directory."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __get__(self, site: Site, owner: type | None = None) -> Path:
+        return site.root / self.name
+
+
 @dataclass(frozen=True)
 class Site:
-    """Paths inside one site directory."""
+    """Paths inside one site directory (the layout in the module docstring)."""
 
     root: Path
 
-    @property
-    def map_yaml(self) -> Path:
-        return self.root / "map.yaml"
-
-    @property
-    def trajectory_csv(self) -> Path:
-        return self.root / "trajectory.csv"
-
-    @property
-    def build_json(self) -> Path:
-        return self.root / "build.json"
-
-    @property
-    def store_path(self) -> Path:
-        return self.root / "site.db"
-
-    @property
-    def plan_json(self) -> Path:
-        return self.root / "plan.json"
+    map_yaml = _SiteFile("map.yaml")
+    trajectory_csv = _SiteFile("trajectory.csv")
+    build_json = _SiteFile("build.json")
+    store_path = _SiteFile("site.db")
+    plan_json = _SiteFile("plan.json")
 
     def session_dir(self, number: int) -> Path:
         return self.root / "sessions" / str(number)

@@ -24,7 +24,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from bomc_bt.errors import BomcError
+from bomc_bt.errors import BomcError, read_input_text
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 
@@ -93,12 +93,7 @@ def _is_number(v) -> bool:
 def load_trajectory(csv_path: str | Path) -> np.ndarray:
     """Read ``trajectory.csv`` (header ``t,x,y,yaw``) as an (N, 4) float array."""
     path = Path(csv_path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise BomcError("trajectory file not found", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BomcError(f"cannot read trajectory ({exc})", path) from None
+    text = read_input_text(path, "trajectory")
     rows = list(csv.reader(text.splitlines()))
     if not rows:
         raise BomcError("empty trajectory file (expected a header t,x,y,yaw and poses)", path)

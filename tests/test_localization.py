@@ -61,7 +61,7 @@ def ray_scan(grid: OccupancyGrid, pose: Pose2D, fov_deg: float = 220.0, beams: i
 
 def random_free_pose(m: ScanMatcher, rng: np.random.Generator, clearance: float = 0.3) -> Pose2D:
     grid = m.grid
-    cells = np.argwhere(grid.free_mask() & (m._dist > clearance))
+    cells = np.argwhere(grid.free_mask() & (m.likelihood.surface_distance > clearance))
     r, c = cells[rng.integers(len(cells))]
     x, y = grid.cell_to_world(r, c)
     return Pose2D(float(x) + rng.uniform(-0.02, 0.02), float(y) + rng.uniform(-0.02, 0.02),

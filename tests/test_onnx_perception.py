@@ -19,7 +19,8 @@ from bomc_bt.errors import BomcError
 from bomc_bt.perception.frames import Detection, Detector, Segmenter
 from bomc_bt.perception.grounding_dino import GroundingDinoDetector, resize_shape
 from bomc_bt.perception.mobile_sam import MobileSamSegmenter, box_prompt, preprocess_sam
-from bomc_bt.perception.onnx_common import OnnxPerceptionParams, build_onnx_backend, resolve_providers
+from bomc_bt.perception.onnx_backend import build_onnx_backend
+from bomc_bt.perception.onnx_common import OnnxPerceptionParams, resolve_providers
 from bomc_bt.perception.tokenizer import PromptTokenizer, phrase_masks
 from bomc_bt.robot import RGBDFrame
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from bomc_bt.planner import GridPlanner, PlannerParams, path_clear_of, path_length
+from bomc_bt.planner import GridPlanner, PlannerParams
+from bomc_bt.polyline import path_clear_of, path_length
 
 RES = 0.05
 

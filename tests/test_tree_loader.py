@@ -12,6 +12,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from py_trees.common import Status
+from yaml_fuzz import paths_of
 
 from bomc_bt.errors import BomcError
 from bomc_bt.tree import ClockTimeout, Leaf, Registry, load_tree
@@ -498,16 +499,6 @@ YAML_VALUES = st.recursive(
     lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(WORDS, inner, max_size=5)),
     max_leaves=25,
 )
-
-
-def paths_of(value, prefix=()):
-    yield prefix
-    if isinstance(value, dict):
-        for k, v in value.items():
-            yield from paths_of(v, (*prefix, k))
-    elif isinstance(value, list):
-        for i, v in enumerate(value):
-            yield from paths_of(v, (*prefix, i))
 
 
 ALL_PATHS = [p for p in paths_of(VALID) if p]

@@ -11,6 +11,7 @@ import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from yaml_fuzz import paths_of, yaml_values
 
 from bomc_bt.errors import BomcError
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, save_map
@@ -337,22 +338,7 @@ def test_generator_reports_a_map_too_small(tmp_path, room):
 # -- fuzz: any mutation either loads or is a BomcError ---------------------------------------
 _scalars = st.one_of(st.none(), st.booleans(), st.integers(-5, 5), st.floats(allow_nan=True),
                      st.text(max_size=6))
-_values = st.recursive(
-    _scalars,
-    lambda inner: st.one_of(st.lists(inner, max_size=4),
-                            st.dictionaries(st.text(max_size=5), inner, max_size=3)),
-    max_leaves=6,
-)
-
-
-def _paths(node, prefix=()):
-    yield prefix
-    if isinstance(node, dict):
-        for k, v in node.items():
-            yield from _paths(v, (*prefix, k))
-    elif isinstance(node, list):
-        for i, v in enumerate(node):
-            yield from _paths(v, (*prefix, i))
+_values = yaml_values(_scalars, st.text(max_size=5), max_keys=3, max_leaves=6)
 
 
 @settings(max_examples=150, deadline=None, derandomize=True,
@@ -361,7 +347,7 @@ def _paths(node, prefix=()):
 def test_fuzzed_worlds_load_or_raise_bomc_error(room, data):
     doc = base_world()
     for _ in range(data.draw(st.integers(1, 3))):
-        paths = [p for p in _paths(doc) if p]
+        paths = [p for p in paths_of(doc) if p]
         path = data.draw(st.sampled_from(paths))
         parent = doc
         for key in path[:-1]:

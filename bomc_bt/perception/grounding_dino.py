@@ -26,14 +26,7 @@ import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.perception.frames import Detection
-from bomc_bt.perception.onnx_common import (
-    OnnxModel,
-    OnnxPerceptionParams,
-    load_model,
-    match_signature,
-    normalise_into,
-    require_outputs,
-)
+from bomc_bt.perception.onnx_common import OnnxModel, OnnxPerceptionParams, load_model, match_export, normalise_into
 from bomc_bt.perception.tokenizer import PromptTokenizer, TokenizedPrompt, normalise_category
 from bomc_bt.robot import RGBDFrame
 
@@ -110,8 +103,7 @@ class GroundingDinoDetector:
     def __init__(self, model_path: str | Path, tokenizer_path: str | Path, params: OnnxPerceptionParams):
         self.params = params
         self.model: OnnxModel = load_model(model_path, params.providers, "detector_model")
-        self.signature = match_signature(self.model, SIGNATURES, "GroundingDINO")
-        require_outputs(self.model, _OUTPUTS[self.signature], "GroundingDINO")
+        self.signature = match_export(self.model, SIGNATURES, _OUTPUTS, "GroundingDINO")
         known = set(SIGNATURES[self.signature]) | set(_OPTIONAL.get(self.signature, ()))
         extra = sorted(set(self.model.inputs) - known)
         if extra:

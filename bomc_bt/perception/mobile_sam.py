@@ -19,14 +19,7 @@ import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.perception.frames import Detection
-from bomc_bt.perception.onnx_common import (
-    OnnxModel,
-    OnnxPerceptionParams,
-    load_model,
-    match_signature,
-    normalise_into,
-    require_outputs,
-)
+from bomc_bt.perception.onnx_common import OnnxModel, OnnxPerceptionParams, load_model, match_export, normalise_into
 from bomc_bt.robot import RGBDFrame
 
 SAM_PIXEL_MEAN = np.array([123.675, 116.28, 103.53], dtype=np.float32)
@@ -37,6 +30,7 @@ DECODER_SIGNATURE = {
     "SamOnnxModel": ("image_embeddings", "point_coords", "point_labels", "mask_input", "has_mask_input",
                      "orig_im_size"),
 }
+DECODER_OUTPUTS = {"SamOnnxModel": ("masks", "iou_predictions")}  # what decode_box reads
 BOX_LABELS = np.array([[2.0, 3.0]], dtype=np.float32)  # SAM's labels for box corners
 
 
@@ -87,8 +81,7 @@ class MobileSamSegmenter:
         self._encoder_input, self.encoder_mode = self._encoder_signature()
         spec = self.encoder.inputs[self._encoder_input]
         self.image_size = (spec.static_dim(2) if self.encoder_mode == "chw" else None) or SAM_IMAGE_SIZE
-        match_signature(self.decoder, DECODER_SIGNATURE, "SAM decoder")
-        require_outputs(self.decoder, ("masks", "iou_predictions"), "SAM decoder")
+        match_export(self.decoder, DECODER_SIGNATURE, DECODER_OUTPUTS, "SAM decoder")
         mask_spec = self.decoder.inputs["mask_input"]
         self._mask_hw = (mask_spec.static_dim(2) or 256, mask_spec.static_dim(3) or 256)
         self.encoder_runs = 0

@@ -18,7 +18,6 @@ import cv2
 import numpy as np
 
 from bomc_bt.errors import BomcError
-from bomc_bt.perception.frames import Detector, Segmenter
 
 CPU_PROVIDER = "CPUExecutionProvider"
 
@@ -38,8 +37,8 @@ _ONNX_DTYPES: dict[str, type] = {
 class OnnxPerceptionParams:
     """The ``perception.onnx`` config block: model files, prompts, thresholds, providers.
 
-    Paths may be relative: :func:`build_onnx_backend` resolves them against the folder of
-    the config file that named them. Defaults follow the GroundingDINO README (box 0.35,
+    Paths may be relative: :func:`bomc_bt.perception.onnx_backend.build_onnx_backend` resolves
+    them against the folder of the config file that named them. Defaults follow the GroundingDINO README (box 0.35,
     text 0.25) and the paper (detections kept at confidence >= 0.75).
     """
 
@@ -184,6 +183,18 @@ def match_signature(model: OnnxModel, signatures: dict[str, tuple[str, ...]], wh
     )
 
 
+def match_export(model: OnnxModel, signatures: dict[str, tuple[str, ...]],
+                 outputs: dict[str, tuple[str, ...]], what: str) -> str:
+    """The model's signature (see :func:`match_signature`), checked to have the outputs it needs.
+
+    ``outputs`` names, per signature, the outputs the backend reads; every backend asks
+    both questions of each model it opens, so a bad export fails on one line here.
+    """
+    key = match_signature(model, signatures, what)
+    require_outputs(model, outputs[key], what)
+    return key
+
+
 def require_outputs(model: OnnxModel, names: tuple[str, ...], what: str) -> None:
     """Check the outputs a backend reads exist, naming the file when they do not."""
     missing = [n for n in names if n not in model.outputs]
@@ -213,33 +224,3 @@ def _spec(arg) -> TensorSpec:
     dtype = _ONNX_DTYPES.get(arg.type, np.float32)
     shape = tuple(d if isinstance(d, int) else None for d in (arg.shape or ()))
     return TensorSpec(arg.name, dtype, shape)
-
-
-def resolve_path(value: str, base_dir: str | Path, field_name: str) -> Path:
-    """A configured model path, relative ones taken from the config file's folder."""
-    if not value:
-        raise BomcError("missing (path to the model file)", field=field_name)
-    p = Path(value).expanduser()
-    return p if p.is_absolute() else Path(base_dir) / p
-
-
-def build_onnx_backend(params: OnnxPerceptionParams, base_dir: str | Path) -> tuple[Detector, Segmenter]:
-    """The GroundingDINO detector and MobileSAM segmenter the params name, ready to run.
-
-    Returns ``(Detector, Segmenter)``. Imported here rather than at module level because
-    the backends import this module for sessions and params.
-    """
-    from bomc_bt.perception.grounding_dino import GroundingDinoDetector
-    from bomc_bt.perception.mobile_sam import MobileSamSegmenter
-
-    detector = GroundingDinoDetector(
-        resolve_path(params.detector_model, base_dir, "detector_model"),
-        resolve_path(params.tokenizer, base_dir, "tokenizer"),
-        params,
-    )
-    segmenter = MobileSamSegmenter(
-        resolve_path(params.segmenter_encoder, base_dir, "segmenter_encoder"),
-        resolve_path(params.segmenter_decoder, base_dir, "segmenter_decoder"),
-        params,
-    )
-    return detector, segmenter

@@ -49,37 +49,43 @@ class ClockTimeout(py_trees.decorators.Decorator):
         return self.decorated.status
 
 
-@dataclasses.dataclass(frozen=True)
-class RetryParams:
-    """``retry``: re-run the child after a failure, failing on the ``num_failures``-th."""
+def _at_least(minimum: float, message: str) -> Any:
+    """A required params field whose value must be >= ``minimum`` (else ``message``)."""
+    return dataclasses.field(metadata={"minimum": minimum, "message": message})
 
-    num_failures: int
+
+class _BoundedParams:
+    """Checks every field declared with :func:`_at_least` when the params are built."""
 
     def __post_init__(self) -> None:
-        if self.num_failures < 1:
-            raise ValueError("num_failures must be at least 1")
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            if "minimum" in f.metadata and getattr(self, f.name) < f.metadata["minimum"]:
+                raise ValueError(f"{f.name} {f.metadata['message']}")
+
+
+@dataclasses.dataclass(frozen=True)
+class RetryParams(_BoundedParams):
+    """``retry``: re-run the child after a failure, failing on the ``num_failures``-th."""
+
+    num_failures: int = _at_least(1, "must be at least 1")  # [count] failures that make retry fail
+
+
+@dataclasses.dataclass(frozen=True)
+class TimeoutParams(_BoundedParams):
+    """``timeout``: fail the child after ``duration`` seconds of robot time."""
+
+    duration: float = _at_least(0.0, "must not be negative")  # [s] robot time the child may run
 
 
 @dataclasses.dataclass(frozen=True)
 class RepeatParams:
     """``repeat``: re-run the child after a success; succeed after ``num_success`` (-1: never)."""
 
-    num_success: int
+    num_success: int  # [count] successes that end the repeat; -1 repeats forever
 
     def __post_init__(self) -> None:
         if self.num_success < 1 and self.num_success != -1:
             raise ValueError("num_success must be at least 1, or -1 to repeat forever")
-
-
-@dataclasses.dataclass(frozen=True)
-class TimeoutParams:
-    """``timeout``: fail the child after ``duration`` seconds of robot time."""
-
-    duration: float
-
-    def __post_init__(self) -> None:
-        if self.duration < 0.0:
-            raise ValueError("duration must not be negative")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -141,6 +147,19 @@ def _status_to_blackboard(name, child, p: StatusToBlackboardParams, env: Decorat
     return py_trees.decorators.StatusToBlackboard(name=name, child=child, variable_name=env.key(p.key))
 
 
+STATUS_MAPS = ("failure_is_success", "failure_is_running", "success_is_failure", "success_is_running",
+               "running_is_failure", "running_is_success")
+"""py_trees' status-mapping decorators: ``a_is_b`` reports the child's status A as B."""
+
+
+def _status_map(key: str) -> DecoratorKind:
+    """``failure_is_success`` -> py_trees' FailureIsSuccess, named "Failure Is Success"."""
+    title = key.replace("_", " ").title()
+    before, _, after = key.partition("_is_")
+    decorator = getattr(py_trees.decorators, title.replace(" ", ""))
+    return DecoratorKind(NoParams, _simple(decorator), title, f"{before.upper()} -> {after.upper()}")
+
+
 DECORATORS: dict[str, DecoratorKind] = {
     "retry": DecoratorKind(
         RetryParams,
@@ -167,23 +186,6 @@ DECORATORS: dict[str, DecoratorKind] = {
     "inverter": DecoratorKind(
         NoParams, _simple(py_trees.decorators.Inverter), "Inverter", "swap SUCCESS and FAILURE"
     ),
-    "failure_is_success": DecoratorKind(
-        NoParams, _simple(py_trees.decorators.FailureIsSuccess), "Failure Is Success", "FAILURE -> SUCCESS"
-    ),
-    "failure_is_running": DecoratorKind(
-        NoParams, _simple(py_trees.decorators.FailureIsRunning), "Failure Is Running", "FAILURE -> RUNNING"
-    ),
-    "success_is_failure": DecoratorKind(
-        NoParams, _simple(py_trees.decorators.SuccessIsFailure), "Success Is Failure", "SUCCESS -> FAILURE"
-    ),
-    "success_is_running": DecoratorKind(
-        NoParams, _simple(py_trees.decorators.SuccessIsRunning), "Success Is Running", "SUCCESS -> RUNNING"
-    ),
-    "running_is_failure": DecoratorKind(
-        NoParams, _simple(py_trees.decorators.RunningIsFailure), "Running Is Failure", "RUNNING -> FAILURE"
-    ),
-    "running_is_success": DecoratorKind(
-        NoParams, _simple(py_trees.decorators.RunningIsSuccess), "Running Is Success", "RUNNING -> SUCCESS"
-    ),
+    **{key: _status_map(key) for key in STATUS_MAPS},
 }
 """Decorator names usable in tree files (``retry: {num_failures: 3}`` + ``child:``)."""
