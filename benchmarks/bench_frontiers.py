@@ -65,7 +65,8 @@ def median_ms(fn, runs: int) -> tuple[float, object]:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--map", type=Path, default=Path("/work/shared/maps/hospital.yaml"))
+    shared = Path(__file__).resolve().parents[2] / "shared"
+    parser.add_argument("--map", type=Path, default=shared / "maps" / "hospital.yaml")
     parser.add_argument("--runs", type=int, default=21, help="timed runs of the fast version")
     parser.add_argument("--ref-runs", type=int, default=3, help="timed runs of the reference")
     parser.add_argument("--radii", type=float, nargs="+", default=[10.0, 25.0, 45.0],

@@ -5,15 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-REPO = Path(__file__).resolve().parents[1]
-SHARED = REPO.parent / "shared"
+from shared_data import SHARED, require_shared
 
 
 @pytest.fixture(scope="session")
 def shared() -> Path:
-    if not (SHARED / "worlds").is_dir():
-        pytest.skip(f"shared data not found at {SHARED}")
+    require_shared()
     return SHARED
 
 

@@ -310,9 +310,9 @@ def test_params_from_yaml_mapping_reject_bad_values():
 
 # ---------------------------------------------------------------------------- end to end
 def test_planted_detection_becomes_a_graph_node_at_the_expected_map_position(tmp_path, tok):
-    projection = pytest.importorskip("bomc_bt.perception.projection")
     from bomc_bt.geometry import Pose2D, se3
     from bomc_bt.graph import AssociationParams, ObjectGraph
+    from bomc_bt.perception import projection
 
     # A box 1 m wide at 3 m in front of a camera 0.5 m up on a robot at (2, 1) facing +y.
     depth = np.full((H, W), 6.0, np.float32)  # wall behind

@@ -185,7 +185,9 @@ def test_apply_change_is_pure_and_rejects_unknown_names():
 def test_objects_touching_walls_are_accepted(room, position, size, yaw):
     doc = base_world()
     doc["objects"].append({"name": "x", "category": "thing", "position": position, "size": size, "yaw": yaw})
-    load_world(write(room, doc))
+    world = load_world(write(room, doc))
+    assert world.objects["x"].category == "thing"
+    assert tuple(world.objects["x"].position) == pytest.approx(tuple(position))
 
 
 @pytest.mark.parametrize("position, size", [
@@ -283,8 +285,10 @@ def test_malformed_world_is_one_line_naming_file_and_field(room, edit, field, me
 
 
 def test_extension_keys_are_allowed(room):
-    load_world(write(room, _set(base_world(), lambda d: (d.update({"x-notes": "hi"}),
-                                                            d["objects"][0].update({"x-colour": "red"})))))
+    plain = load_world(write(room, base_world()))
+    extended = load_world(write(room, _set(base_world(), lambda d: (d.update({"x-notes": "hi"}),
+                                                                       d["objects"][0].update({"x-colour": "red"})))))
+    assert extended.objects == plain.objects  # the extension keys are ignored, nothing else changes
 
 
 @pytest.mark.parametrize("text, field, message", [
