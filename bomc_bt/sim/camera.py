@@ -37,7 +37,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, rotation_y, se3
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.robot import RGBDFrame
+from bomc_bt.sim.frame import SimFrame
 
 PERSON_RADIUS = 0.25  # m
 PERSON_HEIGHT = 1.7  # m
@@ -125,7 +125,7 @@ class SimCamera:
     # -- rendering -------------------------------------------------------------------
     def render(self, walls: np.ndarray, grid: OccupancyGrid, wall_height: float, objects: list,
                obstacles: list, people: list[tuple[float, float]], true_pose: Pose2D,
-               reported_pose: Pose2D, stamp: float) -> RGBDFrame:
+               reported_pose: Pose2D, stamp: float) -> SimFrame:
         """One frame seen from ``true_pose``, registered with ``reported_pose``.
 
         ``objects`` are :class:`bomc_bt.world.WorldObject`-like (name, category, position,
@@ -153,7 +153,7 @@ class SimCamera:
         return self._finish(depth, label, objects, unoccluded, reported_pose, stamp)
 
     def _finish(self, depth: np.ndarray, label: np.ndarray, objects: list, unoccluded: dict[int, int],
-                reported_pose: Pose2D, stamp: float) -> RGBDFrame:
+                reported_pose: Pose2D, stamp: float) -> SimFrame:
         """Range limits, noise, instance and colour images, and the frame record."""
         p = self.params
         beyond = ~(depth <= p.depth_max)  # includes inf (nothing hit)
@@ -164,7 +164,7 @@ class SimCamera:
             depth += _depth_noise(depth.shape, self.seed, stamp) * (np.float32(p.depth_noise) * depth * depth)
         instances = np.maximum(label, 0).astype(np.int32, copy=False)
         categories = {i + 1: str(o.category) for i, o in enumerate(objects)}
-        return RGBDFrame(
+        return SimFrame(
             stamp=float(stamp), rgb=rgb, depth=depth, K=self._K.copy(),
             T_map_base=reported_pose.to_matrix(), T_base_camera=self._T_base_camera.copy(),
             depth_range=(p.depth_min, p.depth_max), instances=instances,
