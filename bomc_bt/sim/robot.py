@@ -150,6 +150,11 @@ class SimRobot:
     def pose(self) -> Pose2D | None:
         return self._estimate if self._localized else None
 
+    @property
+    def building_map(self) -> bool:
+        """True while the map is built from scans (a build, before any saved map is in use)."""
+        return self.mapper is not None and self._map is None
+
     def current_objects(self) -> dict[str, WorldObject]:
         return dict(self._objects)
 
