@@ -7,20 +7,37 @@ AMCL for no-motion updates meanwhile (a standing robot otherwise never converges
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import RequestHandle, Status
 from bomc_bt.ros.convert import covariance, fill_pose, planar_std
+from bomc_bt.ros.params import RosParams
 
-if TYPE_CHECKING:
-    from bomc_bt.ros.robot import RosRobot
+
+class AmclRobot(Protocol):
+    """What a relocalization needs of its robot (:class:`bomc_bt.ros.robot.RosRobot`)."""
+
+    rospy: Any
+    params: RosParams
+    initialpose_pub: Any
+    counts: dict[str, int]  # requests sent, announced to the sim bridge
+    amcl_count: int  # /amcl_pose messages received so far
+    localized: bool
+
+    def now(self) -> float: ...
+
+    def latest_amcl(self) -> tuple[int, Any] | None: ...
+
+    def pose_now(self) -> Pose2D | None: ...
+
+    def call_service(self, name: str, required: bool = True) -> None: ...
 
 
 class AmclRelocalization(RequestHandle):
     """Relocalize through AMCL and wait for a confident /amcl_pose."""
 
-    def __init__(self, robot: RosRobot, hint: Pose2D | None, global_search: bool):
+    def __init__(self, robot: AmclRobot, hint: Pose2D | None, global_search: bool):
         super().__init__("relocalizing")
         self.robot = robot
         p = robot.params

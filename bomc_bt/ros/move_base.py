@@ -18,15 +18,12 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import RequestHandle, Status
 from bomc_bt.ros.convert import fill_pose
 from bomc_bt.ros.params import RosParams
-
-if TYPE_CHECKING:
-    from bomc_bt.ros.robot import RosRobot
 
 
 class MoveBaseClient:
@@ -112,10 +109,23 @@ class MoveBaseClient:
         self.subs = []
 
 
+class GoalSender(Protocol):
+    """What a :class:`NavGoal` needs of its robot (:class:`bomc_bt.ros.robot.RosRobot`)."""
+
+    rospy: Any
+    params: RosParams
+    move_base: MoveBaseClient
+    counts: dict[str, int]  # requests sent, announced to the sim bridge
+
+    def now(self) -> float: ...
+
+    def pose(self) -> Pose2D | None: ...
+
+
 class NavGoal(RequestHandle):
     """One move_base goal in flight (a :class:`bomc_bt.robot.Handle`)."""
 
-    def __init__(self, robot: RosRobot, goal: Pose2D):
+    def __init__(self, robot: GoalSender, goal: Pose2D):
         super().__init__("sent to move_base")
         from move_base_msgs.msg import MoveBaseGoal
 

@@ -60,9 +60,9 @@ class SimRobots:
         self.world: World | None = None
 
     def default_config(self) -> Config:
-        from bomc_bt.run import build_config
+        from bomc_bt.config import load_config
 
-        return build_config()
+        return load_config([], robot="sim")
 
     def connect(self) -> None:
         """Nothing to reach: the simulator runs in this process."""
