@@ -43,8 +43,8 @@ def instrument(robot: SimRobot) -> None:
     robot.lidar.scan = timed("lidar", robot.lidar.scan)
     assert robot.mapper is not None
     robot.mapper.integrate = timed("mapper", robot.mapper.integrate)
-    robot._planner = timed("planning", robot._planner)
-    robot._path_clear = timed("planning", robot._path_clear)
+    robot.planners.live = timed("planning", robot.planners.live)
+    robot.planners.path_clear = timed("planning", robot.planners.path_clear)
 
 
 def dense_trace(pose: Pose2D, dirs: np.ndarray, field: DistanceField, range_max: float) -> np.ndarray:

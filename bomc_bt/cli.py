@@ -131,27 +131,11 @@ def _dispatch(args) -> int:
             return 0
         print(yaml.safe_dump(config_to_dict(run.build_config(args.config)), sort_keys=False), end="")
         return 0
-    if getattr(args, "ros", False):
-        return _dispatch_ros(args)
+    if args.command in ("build", "monitor"):
+        return _mission(args)
     if args.command == "view":
         return _view(args)
     config = run.build_config(args.config)
-    hooks, server = _live_viewer(args)
-    if args.command == "build":
-        try:
-            result = run.run_build(args.world, args.site, seed=args.seed, max_time=args.max_time,
-                                   explorer=args.explorer, tree=args.tree, config=config, quiet=args.quiet,
-                                   context_hooks=hooks)
-        finally:
-            _close(server)
-        return _report_build(result, args.site)
-    if args.command == "monitor":
-        try:
-            result = run.run_monitor(args.world, args.site, args.session, seed=args.seed, tree=args.tree,
-                                     config=config, resume=args.resume, quiet=args.quiet, context_hooks=hooks)
-        finally:
-            _close(server)
-        return _report_monitor(result, args.session)
     if args.command == "evaluate":
         from bomc_bt.evaluate_site import evaluate_session, format_result
         from bomc_bt.evaluation import to_json
@@ -167,25 +151,33 @@ def _dispatch(args) -> int:
     raise BomcError(f"unknown command {args.command!r}")
 
 
-def _dispatch_ros(args) -> int:
-    """``build --ros`` / ``monitor --ros``: the same trees and summaries, a ROS 1 robot."""
+def _mission(args) -> int:
+    """``build`` / ``monitor``: one mission runner, given the simulator or (``--ros``) a ROS 1 robot."""
     from bomc_bt import run
-    from bomc_bt.ros.missions import run_build_ros, run_monitor_ros
 
-    config = run.build_config(args.config, robot="fetch")
+    if args.ros:
+        from bomc_bt.ros.missions import RosRobots
+
+        config, robots = run.build_config(args.config, robot="fetch"), RosRobots()
+    else:
+        from bomc_bt.sim.factory import SimRobots
+
+        config, robots = run.build_config(args.config), SimRobots(args.world, args.seed)
     hooks, server = _live_viewer(args)
-    if args.command == "build":
-        try:
-            result = run_build_ros(args.site, config, max_time=args.max_time, explorer=args.explorer,
-                                   tree=args.tree, quiet=args.quiet, context_hooks=hooks)
-        finally:
-            _close(server)
-        return _report_build(result, args.site)
     try:
-        result = run_monitor_ros(args.site, args.session, config, seed=args.seed, tree=args.tree,
-                                 resume=args.resume, quiet=args.quiet, context_hooks=hooks)
+        if args.command == "build":
+            # A ROS build has nothing seeded: its build record keeps seed 0.
+            result = run.run_build_mission(robots, args.site, config=config, seed=0 if args.ros else args.seed,
+                                           max_time=args.max_time, explorer=args.explorer, tree=args.tree,
+                                           quiet=args.quiet, context_hooks=hooks)
+        else:
+            result = run.run_monitor_mission(robots, args.site, args.session, config=config, seed=args.seed,
+                                             tree=args.tree, resume=args.resume, quiet=args.quiet,
+                                             context_hooks=hooks)
     finally:
         _close(server)
+    if args.command == "build":
+        return _report_build(result, args.site)
     return _report_monitor(result, args.session)
 
 

@@ -9,7 +9,7 @@ Time always comes from :meth:`RobotPort.now` (simulated or ROS time), never wall
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -51,6 +51,13 @@ class RequestHandle:
         self._status = Status.RUNNING
         self._message = message
 
+    @classmethod
+    def refused(cls, message: str) -> RequestHandle:
+        """A request refused before it started (a goal while not localized): FAILED at once."""
+        handle = cls(message)
+        handle.finish(Status.FAILED, message)
+        return handle
+
     def status(self) -> Status:
         return self._status
 
@@ -89,9 +96,9 @@ class RGBDFrame:
 
     ``depth`` is float32 metres with NaN where invalid; ``K`` the 3 x 3 intrinsics;
     ``T_map_base`` and ``T_base_camera`` the 4 x 4 transforms at the image stamp (the
-    camera frame is the optical frame: z forward, x right, y down). The simulator also
-    fills ``instances`` (int32 id per pixel, 0 = none) and ``instance_categories`` so its
-    simulated detector can work; real cameras leave them empty.
+    camera frame is the optical frame: z forward, x right, y down). The simulator's
+    ground truth (which object each pixel shows) rides on its own subclass,
+    :class:`bomc_bt.sim.frame.SimFrame`.
     """
 
     stamp: float
@@ -101,11 +108,6 @@ class RGBDFrame:
     T_map_base: np.ndarray  # (4, 4)
     T_base_camera: np.ndarray  # (4, 4)
     depth_range: tuple[float, float] = (0.3, 8.0)
-    instances: np.ndarray | None = None
-    instance_categories: dict[int, str] = field(default_factory=dict)
-    # Simulator only: pixels each instance would cover if nothing occluded it (its
-    # occluded fraction drives the simulated detector's miss rate).
-    instance_unoccluded: dict[int, int] = field(default_factory=dict)
 
     @property
     def T_map_camera(self) -> np.ndarray:

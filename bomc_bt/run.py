@@ -1,7 +1,12 @@
-"""Wiring a mission: config, robot, site, tree and runner, for the CLI and for tests.
+"""The mission runner: config, site, store, perception, tree and run, for any robot.
 
-``run_build`` and ``run_monitor`` do what ``bomc build`` and ``bomc monitor`` do, minus
-argument parsing and exit codes, so tick-simulation tests call them directly.
+A mission is wired once here, by :func:`run_build_mission` and :func:`run_monitor_mission`;
+what differs between the simulator and a ROS robot (how the robot is made, where the dock
+is, which objects to look for, what to let go of at the end) comes from a
+:class:`RobotFactory` (:class:`bomc_bt.sim.factory.SimRobots`,
+:class:`bomc_bt.ros.missions.RosRobots`). ``run_build`` and ``run_monitor`` do what
+``bomc build`` and ``bomc monitor`` do in the simulator, minus argument parsing and exit
+codes, so tick-simulation tests call them directly.
 """
 
 from __future__ import annotations
@@ -11,11 +16,13 @@ import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, Protocol, TextIO
 
 from bomc_bt.config import Config, load_config, resource_dir
-from bomc_bt.errors import BomcError
+from bomc_bt.errors import BomcError, MissionFailed
+from bomc_bt.geometry import Pose2D
 from bomc_bt.mission import MissionContext
+from bomc_bt.robot import RobotPort
 from bomc_bt.site import Site
 from bomc_bt.tree.loader import load_tree
 from bomc_bt.tree.runner import TreeRunner
@@ -115,37 +122,87 @@ def _restore_sigint(previous) -> None:
         signal.signal(signal.SIGINT, previous)
 
 
+class RobotFactory(Protocol):
+    """What the mission runner asks of a kind of robot (simulator, ROS); it does the rest."""
+
+    def default_config(self) -> Config:
+        """The configuration when none is given (defaults and the robot's file)."""
+
+    def connect(self) -> None:
+        """Make sure the robot can be reached at all (ROS: rospy imports), before any file is touched."""
+
+    def prepare(self, config: Config) -> None:
+        """Read what the robot needs from ``config`` and its inputs (a world), failing early."""
+
+    def build_robot(self, config: Config) -> RobotPort:
+        """The robot of a build mission, at its start pose."""
+
+    def monitor_robot(self, config: Config, session: int) -> RobotPort:
+        """The robot of monitoring pass ``session``, camera included (the saved map comes next)."""
+
+    def dock(self, site: Site) -> Pose2D:
+        """Where the build started: the pass's relocalization hint and its way home."""
+
+    def categories(self, config: Config) -> list[str]:
+        """The prompts of the detector: the objects the pass looks for."""
+
+    def mission_hooks(self, ctx: MissionContext) -> list[Callable]:
+        """Extra per-tick hooks of this robot (ROS: the RViz publisher)."""
+
+    def release(self, robot: RobotPort) -> None:
+        """Let go of the robot after the mission, whatever happened (ROS: cancel, unsubscribe)."""
+
+
+def perception_base_dir(config: Config) -> Path:
+    """The folder relative model paths are read from: the last config file's."""
+    return Path(config.source[-1]).parent if config.source else Path.cwd()
+
+
 # -- build ---------------------------------------------------------------------------------
+def run_build_mission(factory: RobotFactory, site_dir: str | Path, *, config: Config | None = None,
+                      seed: int = 0, max_time: float | None = None, explorer: str | None = None,
+                      tree: str | Path | None = None, quiet: bool = True, stream: TextIO = sys.stdout,
+                      hooks: list[Callable] = (), context_hooks: list[Callable] = ()) -> MissionResult:
+    """Explore from the robot's start pose with the build tree; the map is always saved."""
+    from bomc_bt.build_record import build_summary, save_build
+    from bomc_bt.site import write_json
+
+    factory.connect()
+    config = config or factory.default_config()
+    if explorer:
+        config.exploration.explorer = explorer
+    factory.prepare(config)
+    site = Site(Path(site_dir)).create()
+    robot = factory.build_robot(config)
+    try:
+        ctx = MissionContext(robot=robot, config=config, site=site, mission="build", seed=seed, max_time=max_time)
+        limit = max_time if max_time is not None else config.exploration.max_time
+        result = run_tree(ctx, Path(tree) if tree else default_tree("build"), quiet=quiet, stream=stream,
+                          max_time=limit * 1.25 + 120.0, hooks=list(hooks) + factory.mission_hooks(ctx),
+                          context_hooks=context_hooks, on_interrupt=save_build)
+        if ctx.trajectory is not None:
+            ctx.trajectory.close()
+        if not site.map_yaml.exists():  # a custom tree that never saved: never lose the map
+            save_build(ctx)
+        result.summary = build_summary(ctx)
+        result.summary["outcome"] = (
+            "succeeded" if result.succeeded else ("interrupted" if result.interrupted else "failed"))
+        write_json(site.build_json, result.summary)
+        return result
+    finally:
+        factory.release(robot)
+
+
 def run_build(world_path: str | Path, site_dir: str | Path, *, seed: int = 0, max_time: float | None = None,
               explorer: str | None = None, tree: str | Path | None = None, config: Config | None = None,
               quiet: bool = True, stream: TextIO = sys.stdout, hooks: list[Callable] = (),
               context_hooks: list[Callable] = ()) -> MissionResult:
-    """Explore the world from its start pose with the build tree; the map is always saved."""
-    from bomc_bt.build_record import build_summary, save_build
-    from bomc_bt.sim.robot import SimRobot
-    from bomc_bt.world import load_world
+    """Explore the world from its start pose with the build tree in the simulator."""
+    from bomc_bt.sim.factory import SimRobots
 
-    config = config or build_config()
-    if explorer:
-        config.exploration.explorer = explorer
-    world = load_world(world_path)
-    site = Site(Path(site_dir)).create()
-    robot = SimRobot(world, session=1, params=config.sim, seed=seed, mode="build")
-    ctx = MissionContext(robot=robot, config=config, site=site, mission="build", seed=seed, max_time=max_time)
-    limit = max_time if max_time is not None else config.exploration.max_time
-    result = run_tree(ctx, Path(tree) if tree else default_tree("build"), quiet=quiet, stream=stream,
-                      max_time=limit * 1.25 + 120.0, hooks=hooks, context_hooks=context_hooks,
-                      on_interrupt=save_build)
-    if ctx.trajectory is not None:
-        ctx.trajectory.close()
-    if not site.map_yaml.exists():  # a custom tree that never saved: never lose the map
-        save_build(ctx)
-    result.summary = build_summary(ctx)
-    result.summary["outcome"] = "succeeded" if result.succeeded else ("interrupted" if result.interrupted else "failed")
-    from bomc_bt.site import write_json
-
-    write_json(site.build_json, result.summary)
-    return result
+    return run_build_mission(SimRobots(world_path, seed), site_dir, config=config, seed=seed, max_time=max_time,
+                             explorer=explorer, tree=tree, quiet=quiet, stream=stream, hooks=hooks,
+                             context_hooks=context_hooks)
 
 
 # -- monitor -------------------------------------------------------------------------------
@@ -161,43 +218,6 @@ def make_perception(config: Config, seed: int, base_dir: Path):
 
     detector = SimDetector(config.detector, seed=seed)
     return detector, detector
-
-
-def world_categories(world) -> list[str]:
-    """Every category that appears in the world in any session (the sim's default prompts)."""
-    cats = {o.category for o in world.objects.values()}
-    for change in world.sessions.values():
-        cats.update(o.category for o in change.add)
-    for during in world.during:
-        cats.update(o.category for o in during.change.add)
-    return sorted(cats)
-
-
-def parked_near(world, dock, seed: int, clearance: float, max_offset: float = 0.5, max_angle: float = 0.35):
-    """Where the simulated robot really is at the start of a pass: near the dock, not on it.
-
-    A robot parked by hand or by a previous run is off by decimetres and degrees; the
-    monitor tree's relocalization has to find it from the dock pose. Seeded, and always
-    on free floor with room for the robot.
-    """
-    import math
-
-    import numpy as np
-
-    from bomc_bt.geometry import Pose2D, wrap_angle
-
-    rng = np.random.default_rng([seed, 4242])
-    walls = world.walls()
-    grid = world.grid
-    for _ in range(50):
-        r, a = max_offset * math.sqrt(rng.random()), rng.uniform(0.0, 2.0 * math.pi)
-        x, y = dock.x + r * math.cos(a), dock.y + r * math.sin(a)
-        rows, cols = grid.world_to_cell(x + clearance * np.cos(np.linspace(0, 6.28, 12)),
-                                        y + clearance * np.sin(np.linspace(0, 6.28, 12)))
-        inside = grid.in_bounds(rows, cols)
-        if inside.all() and not walls[rows, cols].any():
-            return Pose2D(x, y, wrap_angle(dock.yaw + rng.uniform(-max_angle, max_angle)))
-    return dock
 
 
 def check_session(store, session: int, resume: bool, store_path: Path) -> None:
@@ -216,56 +236,87 @@ def check_session(store, session: int, resume: bool, store_path: Path) -> None:
                         "--session")
 
 
+def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: int, *,
+                        config: Config | None = None, seed: int = 0, tree: str | Path | None = None,
+                        resume: bool = False, quiet: bool = True, stream: TextIO = sys.stdout,
+                        hooks: list[Callable] = (), context_hooks: list[Callable] = (),
+                        max_time: float = 4 * 3600.0) -> MissionResult:
+    """One monitoring pass of session ``session`` that updates the site's object graph."""
+    from bomc_bt.grid import load_map
+    from bomc_bt.monitoring import Perception
+    from bomc_bt.report import session_summary
+    from bomc_bt.store import SiteStore
+
+    if session < 1:
+        raise BomcError("must be 1 or more", None, "--session")
+    config = config or factory.default_config()
+    factory.prepare(config)
+    site = Site(Path(site_dir))
+    site.require_build()
+    grid = load_map(site.map_yaml)
+    dock = factory.dock(site)
+    categories = factory.categories(config)
+    factory.connect()
+    store = SiteStore(site.store_path)
+    robot = None
+    try:
+        check_session(store, session, resume, site.store_path)
+        graph = store.load_graph(config.association)
+        robot = factory.monitor_robot(config, session)
+        robot.use_map(grid)
+        detector, segmenter = make_perception(config, seed, perception_base_dir(config))
+        perception = Perception(detector, segmenter, categories, config.projection, graph, store, session, grid,
+                                occlusion_check=config.association.mode != "paper")
+        ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
+                             seed=seed, store=store, graph=graph, perception=perception, dock=dock, resume=resume)
+        try:
+            result = run_tree(ctx, Path(tree) if tree else default_tree("monitor"), quiet=quiet, stream=stream,
+                              max_time=max_time, hooks=list(hooks) + factory.mission_hooks(ctx),
+                              context_hooks=context_hooks, on_interrupt=_pass_interrupted)
+        except MissionFailed as exc:
+            _pass_failed(ctx, exc)
+            raise
+        result.summary = session_summary(ctx)
+        result.summary["outcome"] = ctx.outcome or ("interrupted" if result.interrupted else "failed")
+        return result
+    finally:
+        if robot is not None:
+            factory.release(robot)
+        store.close()
+
+
+def _pass_interrupted(ctx: MissionContext) -> None:
+    """Ctrl-C: stop the robot and write the report, but leave the session open in the store
+    so that `bomc monitor --resume` can finish it."""
+    from bomc_bt.report import write_session_report
+
+    ctx.robot.cancel_all()
+    ctx.outcome = "interrupted"
+    write_session_report(ctx, close=False)
+
+
+def _pass_failed(ctx: MissionContext, exc: MissionFailed) -> None:
+    """The robot could not go on (ROS: no camera_info, a dead /clock): stop it and write the report.
+
+    The report of what the pass saw before is what tells the operator what happened. The
+    session stays open in the store, as after Ctrl-C, so that ``--resume`` can finish it
+    once the robot is fixed.
+    """
+    from bomc_bt.report import write_session_report
+
+    ctx.robot.cancel_all()
+    ctx.outcome, ctx.reason = "failed", " ".join(str(exc).split())
+    write_session_report(ctx, close=False)
+
+
 def run_monitor(world_path: str | Path, site_dir: str | Path, session: int, *, seed: int = 0,
                 tree: str | Path | None = None, config: Config | None = None, resume: bool = False,
                 quiet: bool = True, stream: TextIO = sys.stdout, hooks: list[Callable] = (),
                 context_hooks: list[Callable] = (), max_time: float = 4 * 3600.0) -> MissionResult:
     """One monitoring pass of session ``session`` in the simulator."""
-    from bomc_bt.graph import ObjectGraph
-    from bomc_bt.grid import load_map
-    from bomc_bt.monitoring import Perception
-    from bomc_bt.report import session_summary, write_session_report
-    from bomc_bt.sim.camera import SimCamera
-    from bomc_bt.sim.robot import SimRobot
-    from bomc_bt.store import SiteStore
-    from bomc_bt.world import load_world
+    from bomc_bt.sim.factory import SimRobots
 
-    if session < 1:
-        raise BomcError("must be 1 or more", None, "--session")
-    config = config or build_config()
-    world = load_world(world_path)
-    site = Site(Path(site_dir))
-    site.require_build()
-    grid = load_map(site.map_yaml)
-    store = SiteStore(site.store_path)
-    try:
-        check_session(store, session, resume, site.store_path)
-        graph: ObjectGraph = store.load_graph(config.association)
-        camera = SimCamera(config.camera, seed=seed)
-        robot = SimRobot(world, session=session, params=config.sim, seed=seed, mode="monitor", camera=camera,
-                         relocalization=config.relocalization,
-                         start=parked_near(world, world.start, seed, config.sim.planner.robot_radius + 0.1))
-        robot.use_map(grid)
-        detector, segmenter = make_perception(config, seed, Path(config.source[-1]).parent)
-        categories = config.perception.categories or world_categories(world)
-        perception = Perception(detector, segmenter, categories, config.projection, graph, store, session, grid,
-                                occlusion_check=config.association.mode != "paper")
-        ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
-                             seed=seed, store=store, graph=graph, perception=perception,
-                             dock=world.start, resume=resume)
+    return run_monitor_mission(SimRobots(world_path, seed), site_dir, session, config=config, seed=seed,
+                               tree=tree, resume=resume, quiet=quiet, stream=stream, hooks=hooks,
+                               context_hooks=context_hooks, max_time=max_time)
 
-        def interrupted(c: MissionContext) -> None:
-            # Ctrl-C: stop the robot and write the report, but leave the session open in
-            # the store so that `bomc monitor --resume` can finish it.
-            robot.cancel_all()
-            c.outcome = "interrupted"
-            write_session_report(c, close=False)
-
-        result = run_tree(ctx, Path(tree) if tree else default_tree("monitor"), quiet=quiet, stream=stream,
-                          max_time=max_time, hooks=hooks, context_hooks=context_hooks,
-                          on_interrupt=interrupted)
-        result.summary = session_summary(ctx)
-        result.summary["outcome"] = ctx.outcome or ("interrupted" if result.interrupted else "failed")
-        return result
-    finally:
-        store.close()

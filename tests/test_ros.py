@@ -31,8 +31,9 @@ from bomc_bt.robot import Status
 from bomc_bt.ros.missions import run_build_ros, run_monitor_ros
 from bomc_bt.ros.params import RosParams
 from bomc_bt.ros.robot import RosRobot
-from bomc_bt.run import build_config, run_build, run_monitor, world_categories
+from bomc_bt.run import build_config, run_build, run_monitor
 from bomc_bt.sim.clock import SimClock
+from bomc_bt.sim.factory import world_categories
 from bomc_bt.world import load_world
 
 pytestmark = pytest.mark.ros

@@ -12,6 +12,7 @@ from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.params import from_mapping
 from bomc_bt.perception.frames import Detection
+from bomc_bt.robot import RGBDFrame
 from bomc_bt.sim.camera import CameraParams, SimCamera
 from bomc_bt.sim.detector import SimDetector, SimDetectorParams
 from bomc_bt.world import Obstacle, WorldObject
@@ -157,8 +158,10 @@ def test_foreign_boxes_get_the_dominant_instance():
 
 
 def test_needs_the_simulated_instance_image_and_valid_params():
-    frame = scene([chair("a", 2.5, 0.0)])
-    frame.instances = None
+    sim = scene([chair("a", 2.5, 0.0)])
+    # What a real camera delivers: the same pixels, no simulator ground truth.
+    frame = RGBDFrame(sim.stamp, sim.rgb, sim.depth, sim.K, sim.T_map_base, sim.T_base_camera, sim.depth_range)
+    assert not hasattr(frame, "instances")
     with pytest.raises(BomcError, match="simulated camera"):
         SimDetector().detect(frame, ["chair"])
     with pytest.raises(BomcError, match="confusion_rate"):

@@ -42,6 +42,7 @@ import numpy as np
 from bomc_bt.errors import BomcError
 from bomc_bt.perception.frames import Detection
 from bomc_bt.robot import RGBDFrame
+from bomc_bt.sim.frame import SimFrame
 
 _REFERENCE_AREA = 640 * 480  # min_pixels is given at this resolution
 
@@ -189,7 +190,7 @@ class SimDetector:
 
 
 def _instances(frame: RGBDFrame) -> np.ndarray:
-    if frame.instances is None:
+    if not isinstance(frame, SimFrame):
         raise BomcError("the simulated detector needs frames from the simulated camera (no instance "
                         "image); use a real detector backend for real cameras", field="perception.backend")
     return frame.instances
@@ -199,7 +200,7 @@ def _stamp_key(stamp: float) -> int:
     return int(round(float(stamp) * 1000.0)) % (2**63)
 
 
-def _candidates(frame: RGBDFrame, instances: np.ndarray, prompts: set[str],
+def _candidates(frame: SimFrame, instances: np.ndarray, prompts: set[str],
                 min_pixels: int) -> list[_Candidate]:
     """Visible, large-enough instances of prompted categories, in id order."""
     wanted = sorted(i for i, c in frame.instance_categories.items() if c in prompts)

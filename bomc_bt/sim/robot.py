@@ -31,13 +31,14 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.planner import GridPlanner, PlannerParams, path_clear_of
+from bomc_bt.planner import PlannerParams
 from bomc_bt.robot import LaserScan, RequestHandle, RGBDFrame, Status
 from bomc_bt.sim.clock import SimClock
 from bomc_bt.sim.faults import PERSON_RADIUS, FaultParams, People
 from bomc_bt.sim.lidar import Lidar, LidarParams
 from bomc_bt.sim.mapper import Mapper, MapperParams, ObstacleLayer, ObstacleLayerParams
 from bomc_bt.sim.navigation import MotionParams, NavHandle, Navigator
+from bomc_bt.sim.planning import SimPlanners
 from bomc_bt.sim.scene import Scene, SceneParams
 from bomc_bt.world import World, WorldObject, apply_change
 
@@ -115,9 +116,9 @@ class SimRobot:
         self.navigator = Navigator(p.motion, p.planner.goal_tolerance, self._nav_rng,
                                    p.faults.nav_failure_probability)
         self._stuck = False
-        self._planner_cache: dict[str, tuple[Any, GridPlanner]] = {}
         # Maps and localization.
         self.mapper = Mapper.like(world.grid, p.mapper) if mode == "build" else None
+        self.planners = SimPlanners(p.planner, self.mapper)
         self._map: OccupancyGrid | None = None
         self._obstacles: ObstacleLayer | None = None
         self._next_obstacle_update = 0.0
@@ -150,6 +151,11 @@ class SimRobot:
     def pose(self) -> Pose2D | None:
         return self._estimate if self._localized else None
 
+    @property
+    def building_map(self) -> bool:
+        """True while the map is built from scans (a build, before any saved map is in use)."""
+        return self.mapper is not None and self._map is None
+
     def current_objects(self) -> dict[str, WorldObject]:
         return dict(self._objects)
 
@@ -170,7 +176,7 @@ class SimRobot:
     def use_map(self, grid: OccupancyGrid) -> None:
         self._map = grid
         self._obstacles = ObstacleLayer(grid, self.params.obstacles)
-        self._planner_cache.clear()
+        self.planners.use_map(grid, self._obstacles)
         self._matchers.clear()
 
     # -- port: stepping --------------------------------------------------------------------
@@ -181,7 +187,8 @@ class SimRobot:
         self.people.step(p.dt, self._true.xy, p.motion.body_radius)
         v, w = 0.0, 0.0
         if self._localized and self.navigator.active:
-            v, w = self.navigator.update(self._estimate, now, self._planner, self._path_clear, self._stuck)
+            v, w = self.navigator.update(self._estimate, now, self.planners.live, self.planners.path_clear,
+                                           self._stuck)
         self._move(v, w, p.dt)
         self._update_relocalization(now)
         self._update_estimate()
@@ -270,43 +277,6 @@ class SimRobot:
             self._next_obstacle_update = self.now() + self.params.obstacles.update_period
             self._obstacles.update(self._short_scan(), self._estimate_at(self._scan_pose))
 
-    def _planner(self) -> GridPlanner:
-        """The obstacle-aware planner for the current map (rebuilt only when it changed)."""
-        if self._map is None:
-            assert self.mapper is not None
-            key = ("mapper", self.mapper.updates)
-            params = replace(self.params.planner, allow_unknown=True)
-            return self._cached("live", key, lambda: GridPlanner(self.mapper.grid(), params))
-        assert self._obstacles is not None
-        key = ("obstacles", self._obstacles.version)
-        return self._cached("live", key, lambda: GridPlanner(self._map, self.params.planner,
-                                                              self._obstacles.mask))
-
-    def _path_clear(self, path: np.ndarray, skip: float) -> bool:
-        """Cheap check of the plan against what is known to be occupied now (no rebuild)."""
-        if self._map is None:
-            assert self.mapper is not None
-            grid = self.mapper.grid()
-            obstacles = grid.occupied_mask()
-        else:
-            assert self._obstacles is not None
-            grid = self._map
-            obstacles = grid.occupied_mask() | self._obstacles.mask
-        return path_clear_of(obstacles, grid, path, self.params.planner.robot_radius, skip)
-
-    def _static_planner(self) -> GridPlanner:
-        """The planner on the map alone (tells "no path at all" from "blocked for now")."""
-        if self._map is None:
-            return self._planner()
-        return self._cached("static", id(self._map), lambda: GridPlanner(self._map, self.params.planner))
-
-    def _cached(self, slot: str, key: Any, build) -> GridPlanner:
-        hit = self._planner_cache.get(slot)
-        if hit is None or hit[0] != key:
-            hit = (key, build())
-            self._planner_cache[slot] = hit
-        return hit[1]
-
     # -- port: navigation ------------------------------------------------------------------
     def navigate(self, goal: Pose2D) -> NavHandle:
         if not self._localized:
@@ -318,7 +288,7 @@ class SimRobot:
             handle = NavHandle(goal)
             handle.finish(Status.FAILED, "no map in use")
             return handle
-        return self.navigator.start(goal, self._estimate, self.now(), self._planner, self._static_planner)
+        return self.navigator.start(goal, self._estimate, self.now(), self.planners.live, self.planners.static)
 
     def cancel_all(self) -> None:
         self.navigator.cancel()
