@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from behaviours.traverse import LookAroundParams
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.look_around import LookAroundParams
 from bomc_bt.monitoring import unverified_headings
 
 ROBUST = AssociationParams(mode="robust", confirm_detections=1)

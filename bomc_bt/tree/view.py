@@ -18,11 +18,15 @@ from typing import Any, TextIO
 import py_trees
 from py_trees.common import Status
 
+from bomc_bt.tree.loop import Loop
+
 SYMBOLS = {Status.SUCCESS: "✔", Status.FAILURE: "✕", Status.RUNNING: "●", Status.INVALID: "·"}
 
 
 def kind_of(node: py_trees.behaviour.Behaviour) -> str:
-    """The node's kind as a tree file spells it: sequence, selector, parallel, decorator, behaviour."""
+    """The node's kind as a tree file spells it: sequence, selector, parallel, loop, decorator, behaviour."""
+    if isinstance(node, Loop):
+        return "loop"
     if isinstance(node, py_trees.composites.Sequence):
         return "sequence"
     if isinstance(node, py_trees.composites.Selector):
