@@ -50,6 +50,19 @@ def snapshot(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
     }
 
 
+def tree_ports(root: py_trees.behaviour.Behaviour) -> dict[str, dict[str, list[str]]]:
+    """Blackboard key -> the names of the leaves that read and write it (the tree's data flow)."""
+    from bomc_bt.tree.leaf import Leaf
+
+    ports: dict[str, dict[str, list[str]]] = {}
+    for node in root.iterate():
+        if isinstance(node, Leaf):
+            for kind, logical in (("reads", node.reads), ("writes", node.writes)):
+                for key in logical:
+                    ports.setdefault(node.keys[key], {"reads": [], "writes": []})[kind].append(node.name)
+    return ports
+
+
 def render_tree(root: py_trees.behaviour.Behaviour, width: int | None = None) -> list[str]:
     """One line per node: indentation, status symbol, name, kind, feedback message."""
     lines: list[str] = []
