@@ -10,12 +10,9 @@ The occupancy grid is the one big thing: it never goes into JSON. The store keep
 of the cells and the ``map`` section carries only its version and geometry; the server
 encodes the PNG lazily, on its own thread, once per version.
 
-:class:`ViewerHook` is the ``on_tick`` hook of a live mission. Ticks are the mission's hot
-loop, so a tick costs a pose read (the path is tracked every tick, or a fast simulation
-would draw a coarse path) and, at most ``interval_wall_s`` of *wall* time apart, one
-sample of the mission. Wall time only paces the display; nothing the robot does depends on
-it. The map is copied at most every ``map_interval_sim_s`` robot seconds and only when the
-robot port handed out a new grid object (the simulated mapper caches its grid between scans).
+The sections are built in :mod:`bomc_bt.viewer.sections`, sampled from a live mission by
+:class:`~bomc_bt.viewer.live.ViewerHook` and read from a finished site by
+:class:`~bomc_bt.viewer.site.SiteView`.
 """
 
 from __future__ import annotations
