@@ -100,7 +100,7 @@ class TerminalView:
         self.interval_wall_s = interval_wall_s
         self.interval_sim_s = interval_sim_s
         self.progress = progress
-        self.tty = tty if tty is not None else bool(getattr(self.stream, "isatty", lambda: False)())
+        self.tty = tty if tty is not None else self.stream.isatty()
         self.wall_clock = wall_clock
         self.root: py_trees.behaviour.Behaviour | None = None
         self._drawn_lines = 0
