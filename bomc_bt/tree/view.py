@@ -18,6 +18,7 @@ from typing import Any, TextIO
 import py_trees
 from py_trees.common import Status
 
+from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.loop import Loop
 
 SYMBOLS = {Status.SUCCESS: "✔", Status.FAILURE: "✕", Status.RUNNING: "●", Status.INVALID: "·"}
@@ -52,8 +53,6 @@ def snapshot(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
 
 def tree_ports(root: py_trees.behaviour.Behaviour) -> dict[str, dict[str, list[str]]]:
     """Blackboard key -> the names of the leaves that read and write it (the tree's data flow)."""
-    from bomc_bt.tree.leaf import Leaf
-
     ports: dict[str, dict[str, list[str]]] = {}
     for node in root.iterate():
         if isinstance(node, Leaf):
