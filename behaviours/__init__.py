@@ -5,7 +5,18 @@ Leaves are thin: they read the robot port and the mission context, call the libr
 package registers every leaf by name in the default registry the YAML loader uses.
 """
 
-from behaviours import common, explore, perceive, relocalize, save_map, session, traverse  # noqa: F401
+from behaviours import (  # noqa: F401
+    common,
+    explore,
+    look_around,
+    navigate,
+    perceive,
+    plan_pass,
+    relocalize,
+    save_map,
+    session,
+    waypoints,
+)
 from bomc_bt.tree.registry import REGISTRY
 
 

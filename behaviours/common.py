@@ -10,17 +10,9 @@ from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
 
 
-def cancel_if_interrupted(leaf, new_status: Status) -> None:
-    """A leaf that drives the robot and is interrupted (a higher-priority branch took over,
-    or the tree stopped) cancels its goal, so the robot does not keep driving for nobody."""
-    handle = getattr(leaf, "handle", None)
-    if new_status == Status.INVALID and handle is not None and not handle.status().done:
-        handle.cancel()
-
-
 @dataclass
 class FailParams:
-    message: str = "failed"
+    message: str = "failed"  # [text] the reason given (and the mission's reason, if it has none yet)
 
 
 @register("Fail")
@@ -38,7 +30,7 @@ class Fail(Leaf):
 
 @dataclass
 class WaitParams:
-    duration: float = 1.0  # s of robot time
+    duration: float = 1.0  # [s] robot time to wait
 
 
 @register("Wait")

@@ -1,8 +1,9 @@
 """Explore: Dynamic Window Frontier Exploration as tree leaves.
 
 The loop itself is in ``trees/explore.yaml``: choose a frontier, drive to it, blacklist
-it when it cannot be reached, until the explorer says done, time limit or stuck. The
-decisions are :class:`bomc_bt.exploration.explorer.Explorer`'s; these leaves only ask it.
+it when it cannot be reached, until the explorer says done, time limit or stuck
+(``ExplorationOver``, the loop's exit condition). The decisions are
+:class:`bomc_bt.exploration.explorer.Explorer`'s; these leaves only ask it.
 """
 
 from __future__ import annotations
@@ -12,18 +13,19 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
-from behaviours.common import cancel_if_interrupted
 from bomc_bt.exploration.explorer import DONE, EXPLORING, TIME_LIMIT, Explorer, still_open
 from bomc_bt.geometry import Pose2D
+from bomc_bt.robot import Handle
 from bomc_bt.robot import Status as Nav
 from bomc_bt.site import TrajectoryRecorder
+from bomc_bt.tree.action import ActionLeaf
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
 
 
 @dataclass
 class StartExplorationParams:
-    max_consecutive_failures: int = 5
+    max_consecutive_failures: int = 5  # [count] failed goals in a row that make the explorer stuck
 
 
 @register("StartExploration")
@@ -60,7 +62,10 @@ class RecordTrajectory(Leaf):
 
 @register("ChooseFrontier")
 class ChooseFrontier(Leaf):
-    """Asks the explorer for the next frontier; fails when exploration is over."""
+    """Asks the explorer for the next frontier (the ``goal``); without one, exploration is over.
+
+    Succeeds either way: ``ExplorationOver`` right after it tells the loop whether to stop.
+    """
 
     writes = ("goal",)
 
@@ -75,7 +80,7 @@ class ChooseFrontier(Leaf):
         goal = ctx.explorer.next_goal(grid, (pose.x, pose.y), ctx.now())
         if goal is None:
             self.feedback_message = f"{ctx.explorer.status}: {ctx.explorer.reason}"
-            return Status.FAILURE
+            return Status.SUCCESS
         self.set("goal", goal)
         n = len(ctx.explorer.frontiers)
         self.feedback_message = (
@@ -84,59 +89,77 @@ class ChooseFrontier(Leaf):
         return Status.SUCCESS
 
 
+@register("ExplorationOver")
+class ExplorationOver(Leaf):
+    """The exploration loop's exit condition: succeeds once the explorer says done, time
+    limit or stuck; fails (the loop goes on) while it is still exploring."""
+
+    def update(self) -> Status:
+        explorer = self.context.explorer
+        self.feedback_message = explorer.status
+        return Status.FAILURE if explorer.status == EXPLORING else Status.SUCCESS
+
+
 @dataclass
 class DriveToFrontierParams:
-    recheck_period: float = 2.0  # s of robot time between checks that the frontier is still open
-    open_radius: float = 0.6  # m around the goal searched for unknown cells
-    min_unknown: int = 6  # fewer unknown cells than this: the frontier is mapped, move on
+    recheck_period: float = 2.0  # [s] robot time between checks that the frontier is still open
+    open_radius: float = 0.6  # [m] around the goal searched for unknown cells
+    min_unknown: int = 6  # [count] fewer unknown cells than this: the frontier is mapped, move on
 
 
 @register("DriveToFrontier")
-class DriveToFrontier(Leaf):
-    """Drives to the chosen frontier; succeeds early once it has been mapped."""
+class DriveToFrontier(ActionLeaf):
+    """Drives to the chosen frontier; succeeds early once it has been mapped, or when time is up."""
 
     Params = DriveToFrontierParams
     reads = ("goal",)
     writes = ("nav_failure",)
 
-    def initialise(self) -> None:
+    def send(self) -> Handle:
         self.goal = self.get("goal")
         pose = self.context.robot.pose()
         # Arrive facing the frontier: the lidar's blind sector is behind the robot.
         yaw = math.atan2(self.goal.xy[1] - pose.y, self.goal.xy[0] - pose.x) if pose is not None else 0.0
-        self.handle = self.context.robot.navigate(Pose2D(*self.goal.xy, yaw))
+        handle = self.context.robot.navigate(Pose2D(*self.goal.xy, yaw))
         self.next_check = self.context.now() + self.params.recheck_period
+        return handle
 
-    def update(self) -> Status:
-        ctx, explorer = self.context, self.context.explorer
-        now = ctx.now()
-        if explorer.time_up(now):
+    def still_open(self, grid) -> bool:
+        p = self.params
+        return still_open(grid, self.goal.xy, p.open_radius, p.min_unknown)
+
+    def before_poll(self) -> Status | None:
+        explorer = self.context.explorer
+        if explorer.time_up(self.context.now()):  # exploration is over, not this drive a failure
             explorer.status, explorer.reason = TIME_LIMIT, f"time limit of {explorer.max_time:.0f} s reached"
             self.feedback_message = explorer.reason
-            return Status.FAILURE
-        status = self.handle.status()
-        if status is Nav.SUCCEEDED:
-            p = self.params
-            unmapped = still_open(ctx.robot.live_map(), self.goal.xy, p.open_radius, p.min_unknown)
-            explorer.goal_reached(self.goal, unmapped)
             return Status.SUCCESS
-        if status.done:
-            grid = ctx.robot.live_map()
-            p = self.params
-            if status is Nav.BLOCKED and not still_open(grid, self.goal.xy, p.open_radius, p.min_unknown):
-                # The frontier turned out to be a wall once seen: explored, not a failure.
-                explorer.goal_reached(self.goal, still_open=True)
-                self.feedback_message = "frontier closed by a wall"
-                return Status.SUCCESS
-            self.set("nav_failure", f"{status.value}: {self.handle.message}")
-            self.feedback_message = f"goal {status.value}: {self.handle.message}"
-            return Status.FAILURE
+        return None
+
+    def on_success(self) -> Status:
+        self.context.explorer.goal_reached(self.goal, self.still_open(self.context.robot.live_map()))
+        return Status.SUCCESS
+
+    def on_failure(self, status: Nav) -> Status:
+        grid = self.context.robot.live_map()
+        if status is Nav.BLOCKED and not self.still_open(grid):
+            # The frontier turned out to be a wall once seen: explored, not a failure.
+            self.context.explorer.goal_reached(self.goal, still_open=True)
+            self.feedback_message = "frontier closed by a wall"
+            return Status.SUCCESS
+        self.set("nav_failure", f"{status.value}: {self.handle.message}")
+        self.feedback_message = f"goal {status.value}: {self.handle.message}"
+        return Status.FAILURE
+
+    def on_running(self) -> Status:
+        ctx = self.context
+        now = ctx.now()
         if now >= self.next_check:
             self.next_check = now + self.params.recheck_period
             grid = ctx.robot.live_map()
             ctx.progress.explored_area = grid.free_area()
-            if not still_open(grid, self.goal.xy, self.params.open_radius, self.params.min_unknown):
-                explorer.goal_reached()
+            if not self.still_open(grid):
+                ctx.explorer.goal_reached()
                 self.feedback_message = "frontier mapped on the way"
                 return Status.SUCCESS
         pose = ctx.robot.pose()
@@ -145,27 +168,25 @@ class DriveToFrontier(Leaf):
             self.feedback_message = f"driving to ({self.goal.xy[0]:.1f}, {self.goal.xy[1]:.1f}), {d:.1f} m"
         return Status.RUNNING
 
-    def terminate(self, new_status: Status) -> None:
-        cancel_if_interrupted(self, new_status)
-
 
 @register("BlacklistGoal")
 class BlacklistGoal(Leaf):
-    """Marks the failed goal unreachable; fails once the explorer is stuck."""
+    """Marks the failed goal unreachable (which may leave the explorer stuck: the loop's
+    ``ExplorationOver`` then ends it, and ``ExplorationOutcome`` fails the build)."""
 
     reads = ("goal", "nav_failure")
 
     def update(self) -> Status:
         explorer = self.context.explorer
         if explorer.status != EXPLORING:
-            self.feedback_message = f"exploration {explorer.status}"
-            return Status.FAILURE
+            self.feedback_message = f"exploration {explorer.status}: nothing to blacklist"
+            return Status.SUCCESS
         goal = self.get("goal")
         why = self.get("nav_failure") or "unreachable"
         pose = self.context.robot.pose()
         explorer.goal_failed(goal, why, (pose.x, pose.y) if pose is not None else None, self.context.now())
         self.feedback_message = f"blacklisted ({goal.xy[0]:.1f}, {goal.xy[1]:.1f}): {why}"
-        return Status.SUCCESS if explorer.status == EXPLORING else Status.FAILURE
+        return Status.SUCCESS
 
 
 @register("ExplorationOutcome")

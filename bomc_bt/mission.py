@@ -3,20 +3,30 @@
 A tree's leaves are built by the YAML loader with one :class:`MissionContext`. It holds
 the robot port, the validated configuration, the site being written and the per-run
 library objects (the explorer, the trajectory recorder, the object graph and store, the
-traversal plan). Leaves read and write these through plain attributes; blackboard keys
-carry only what the tree itself branches on (goals, statuses), so the py_trees viewer
-shows the mission's decisions without megabytes of maps.
+traversal plan). Leaves use these long-lived objects through typed attributes; what one
+leaf tells another (the goal, how the robot was localized, whether a goal was reached by
+a detour) goes through the blackboard keys the leaves declare (their ports, listed in
+``trees/README.md``), so the viewer's blackboard panel shows the mission's decisions
+without megabytes of maps.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 from bomc_bt.config import Config
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import RobotPort
 from bomc_bt.site import Site, TrajectoryRecorder
+
+if TYPE_CHECKING:  # annotations only: a context does not import the planners and the graph
+    from bomc_bt.exploration.explorer import Explorer
+    from bomc_bt.graph import ObjectGraph
+    from bomc_bt.monitoring import Perception, TraversalState
+    from bomc_bt.planner import GridPlanner
+    from bomc_bt.store import SiteStore
+    from bomc_bt.traversal import TraversalPlan
 
 
 @dataclass
@@ -45,15 +55,15 @@ class MissionContext:
     resume: bool = False  # continue the session's pass where a killed run left it
     progress: Progress = field(default_factory=Progress)
     trajectory: TrajectoryRecorder | None = None
-    explorer: Any = None  # bomc_bt.exploration.explorer.Explorer during a build
-    store: Any = None  # bomc_bt.store.SiteStore during a monitor pass
-    graph: Any = None  # bomc_bt.graph.ObjectGraph
-    plan: Any = None  # bomc_bt.traversal.TraversalPlan
-    traverse: Any = None  # bomc_bt.monitoring.TraversalState
-    perception: Any = None  # bomc_bt.monitoring.Perception
+    explorer: Explorer | None = None  # during a build
+    store: SiteStore | None = None  # during a monitor pass
+    graph: ObjectGraph | None = None
+    plan: TraversalPlan | None = None
+    traverse: TraversalState | None = None
+    perception: Perception | None = None
+    map_planner: GridPlanner | None = None  # shortest paths on the saved map (NavigateTo's detour test)
     outcome: str = ""
     reason: str = ""
-    extras: dict[str, Any] = field(default_factory=dict)
 
     def now(self) -> float:
         return self.robot.now()

@@ -7,10 +7,15 @@ from typing import Any
 
 from bomc_bt.render import render_semantic_map, save_png
 from bomc_bt.site import write_json
+from bomc_bt.tree.leaf import read_key
+
+LOCALIZED_KEY = "localized"
+"""The blackboard key the Relocalize leaf writes: ``local`` or ``global`` (absent: not localized)."""
 
 
 def session_summary(ctx) -> dict[str, Any]:
-    """Counts, coverage, missed waypoints and timing of the pass in ``ctx``."""
+    """Counts, coverage, missed waypoints and timing of the pass in ``ctx``; how the robot
+    was localized comes from the blackboard key :data:`LOCALIZED_KEY`."""
     events = Counter(e.kind for e in (ctx.perception.events if ctx.perception else []))
     coverage = ctx.perception.coverage if ctx.perception else None
     by_category = Counter(n.category for n in ctx.graph.nodes.values())
@@ -19,7 +24,7 @@ def session_summary(ctx) -> dict[str, Any]:
         "outcome": ctx.outcome,
         "reason": ctx.reason,
         "sim_time_s": round(ctx.now(), 1),
-        "path_length_m": round(getattr(ctx.robot, "distance_travelled", 0.0), 1),
+        "path_length_m": round(ctx.robot.distance_travelled, 1),
         "frames": ctx.perception.frames if ctx.perception else 0,
         "nodes": len(ctx.graph.nodes),
         "nodes_by_category": dict(sorted(by_category.items())),
@@ -30,7 +35,7 @@ def session_summary(ctx) -> dict[str, Any]:
             "unobserved_regions": coverage.unobserved_regions() if coverage else [],
         },
         "traversal": ctx.traverse.summary() if ctx.traverse else {},
-        "localized": ctx.extras.get("localized", "no"),
+        "localized": read_key(LOCALIZED_KEY, "no"),
     }
 
 

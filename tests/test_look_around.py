@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from behaviours.traverse import LookAroundParams
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.look_around import HeadTurns, LookAroundParams, plan_head_turns
 from bomc_bt.monitoring import unverified_headings
 
 ROBUST = AssociationParams(mode="robust", confirm_detections=1)
@@ -84,3 +84,20 @@ def test_a_node_loaded_from_the_store_is_not_stale_until_seen():
 def test_bad_look_around_params_are_refused(field, value):
     with pytest.raises(ValueError, match=field):
         LookAroundParams(**{field: value})
+
+
+def test_head_turns_hand_out_headings_dwell_after_each_and_stop_at_the_deadline():
+    turns = HeadTurns([0.5, 1.5, 2.5], dwell=2.0, deadline=10.0)
+    assert turns.next_heading(0.0) == 0.5 and not turns.dwelling(0.0)
+    turns.turned(1.0)
+    assert turns.dwelling(2.9) and not turns.dwelling(3.0)
+    assert turns.next_heading(3.0) == 1.5 and not turns.dwelling(3.0)
+    assert turns.next_heading(10.0) is None and turns.headings == [2.5]  # time is up
+
+
+def test_planned_head_turns_need_a_pose():
+    g = graph_seen_at(10.0, session=1)
+    params = LookAroundParams(radius=5.0, max_turns=4, timeout=30.0)
+    assert plan_head_turns(g, None, 2, open_room(), params, 60.0, now=5.0).headings == []
+    turns = plan_head_turns(g, Pose2D(5.0, 5.0, 0.0), 2, open_room(), params, 60.0, now=5.0)
+    assert sorted(round(math.degrees(h)) for h in turns.headings) == [-90, 90] and turns.deadline == 35.0

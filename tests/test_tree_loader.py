@@ -578,3 +578,17 @@ def test_fuzz_raw_text_only_bomc_error(tmp_path, text):
 def test_recursive_alias_is_an_error_not_a_crash(tmp_path):
     error = error_for(tmp_path, "root: &r {inverter: null, child: *r}\n")
     assert "bad.yaml" in error and ("cycle" in error or "deeper" in error or "nested" in error)
+
+
+def test_ports_must_list_exactly_the_keys_a_leaf_uses(tmp_path):
+    ok = write(tmp_path, "ok.yaml", "root: {behaviour: Copy, params: {speed: 1}, remap: {target: out}, "
+                                    "ports: {reads: [source], writes: [out]}}\n")
+    load(ok, require_ports=True)
+    bad = write(tmp_path, "bad.yaml", "root: {behaviour: Copy, params: {speed: 1}, ports: {reads: [source]}}\n")
+    with pytest.raises(BomcError, match=r"root.ports.writes: writes lists \[\], but the leaf writes \['target'\]; "
+                                        r"write ports: \{reads: \[source\], writes: \[target\]\}"):
+        load(bad)
+    missing = write(tmp_path, "missing.yaml", "root: {behaviour: Copy, params: {speed: 1}}\n")
+    load(missing)  # optional unless required
+    with pytest.raises(BomcError, match="root.ports: must be a mapping"):
+        load(missing, require_ports=True)

@@ -133,3 +133,12 @@ def test_snapshot_is_json_with_statuses_and_feedback(tmp_path):
         {"name": "Drive", "kind": "behaviour", "type": "WaitUntil", "status": "running", "feedback": "",
          "children": []}
     ]
+
+
+def test_a_run_starts_with_the_leaves_keys_unset_whatever_an_earlier_run_left(tmp_path):
+    py_trees.blackboard.Blackboard.set("/count", 41)  # left by an earlier mission in this process
+    py_trees.blackboard.Blackboard.set("/unrelated", "kept")
+    robot = FakeRobot(dt=1.0)
+    TreeRunner(build(tmp_path, robot), robot).run()
+    assert py_trees.blackboard.Blackboard.get("/count") == 1  # counted from scratch
+    assert py_trees.blackboard.Blackboard.get("/unrelated") == "kept"

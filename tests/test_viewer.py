@@ -26,6 +26,7 @@ from browser import INSTALL_HINT, Browser, BrowserError, find_chromium
 from py_trees.common import Status
 
 from bomc_bt.errors import BomcError
+from bomc_bt.exploration.dwfe import Blacklist
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
 from bomc_bt.grid import OccupancyGrid, save_map
@@ -34,8 +35,9 @@ from bomc_bt.site import write_json
 from bomc_bt.store import SiteStore
 from bomc_bt.tree.runner import TreeRunner
 from bomc_bt.viewer import Server, SiteView, StateStore, ViewerHook, ViewerParams, diff_nodes, serve_site
+from bomc_bt.viewer.live import PathTracker
+from bomc_bt.viewer.sections import blackboard_section, category_hex
 from bomc_bt.viewer.server import parse_event_id
-from bomc_bt.viewer.state import PathTracker, blackboard_section, category_hex
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
 
@@ -97,7 +99,7 @@ class Frontier:
 @dataclass
 class Explorer:
     frontiers: list = field(default_factory=list)
-    blacklist: Any = None
+    blacklist: Blacklist = field(default_factory=Blacklist)
     goals: int = 0
 
 
@@ -238,9 +240,17 @@ def test_map_is_sent_once_per_change_as_a_north_up_png():
 def test_blackboard_values_are_short_reprs_sorted_by_key():
     params = ViewerParams(value_chars=20)
     rows = blackboard_section({"/b": list(range(1000)), "/a": "x" * 500, "/c": 3}, params)
-    assert [k for k, _ in rows] == ["/a", "/b", "/c"]
-    assert all(len(v) <= 20 for _, v in rows)
+    assert [k for k, _, _ in rows] == ["/a", "/b", "/c"]
+    assert all(len(v) <= 20 for _, v, _ in rows)
     assert rows[2][1] == "3"
+
+
+def test_blackboard_lists_every_declared_key_with_its_readers_and_writers():
+    ports = {"/goal": {"writes": ["Next Waypoint", "Find Detour"], "reads": ["Navigate To Waypoint"]},
+             "/nav_detour": {"writes": ["Navigate To Waypoint"], "reads": []}}
+    rows = blackboard_section({"/goal": (1.0, 2.0)}, ViewerParams(), ports)
+    assert rows == [["/goal", "(1.0, 2.0)", "written by Next Waypoint, Find Detour · read by Navigate To Waypoint"],
+                    ["/nav_detour", "—", "written by Navigate To Waypoint"]]
 
 
 def test_path_keeps_every_step_until_it_must_thin_out():

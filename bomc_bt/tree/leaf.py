@@ -4,7 +4,11 @@ A leaf is a thin py_trees behaviour: it reads its inputs from the blackboard, ca
 library code (exploration, perception, the robot port) and writes its outputs back.
 It declares the blackboard keys it touches by *logical* name (``reads`` / ``writes``)
 so a tree file can wire two instances of the same leaf to different blackboard entries
-with ``remap: {goal: waypoint_goal}`` without the leaf knowing.
+with ``remap: {goal: waypoint_goal}`` without the leaf knowing. Those keys are the leaf's
+ports (Nav2's input and output ports): tree files list them in ``ports:`` and the viewer's
+blackboard panel shows them. A parameter that is a configuration value (the camera's
+expect range) is named in ``config_params``: the leaf reads it from the configuration and a
+tree file may not set it, so the value is defined once.
 """
 
 from __future__ import annotations
@@ -18,6 +22,26 @@ import py_trees
 
 KEY_PATTERN = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
 """Blackboard key syntax: identifiers joined by ``/`` ('.' is py_trees' nested-attribute access)."""
+
+
+def read_key(name: str, default: Any = None) -> Any:
+    """The value on the blackboard under ``name`` (what the leaves wrote), or ``default``.
+
+    For code outside the tree that reports on a mission (the session report reads the
+    ``localized`` key the Relocalize leaf writes).
+    """
+    try:
+        return py_trees.blackboard.Blackboard.get(blackboard_key(name))
+    except KeyError:
+        return default
+
+
+def config_value(config: Any, path: str) -> Any:
+    """``config.projection.expect_range`` for ``path`` ``"projection.expect_range"``."""
+    value = config
+    for part in path.split("."):
+        value = getattr(value, part)
+    return value
 
 
 def blackboard_key(name: str) -> str:
@@ -44,6 +68,8 @@ class Leaf(py_trees.behaviour.Behaviour):
     Params: ClassVar[type] = NoParams
     reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]] = ()
+    config_params: ClassVar[dict[str, str]] = {}
+    """Parameter field -> dotted configuration path it is read from (never set in a tree file)."""
 
     def __init__(
         self,
@@ -53,7 +79,11 @@ class Leaf(py_trees.behaviour.Behaviour):
         remap: Mapping[str, str] | None = None,
     ):
         super().__init__(name=name)
-        self.params = self.Params() if params is None else params
+        params = self.Params() if params is None else params
+        if context is not None and self.config_params:
+            values = {name: config_value(context.config, path) for name, path in self.config_params.items()}
+            params = dataclasses.replace(params, **values)
+        self.params = params
         self.context = context
         self.keys = self.resolve_keys(remap)
         self.blackboard = self.attach_blackboard_client(name=name)

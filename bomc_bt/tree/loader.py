@@ -10,19 +10,20 @@ tree file is user input, so no other exception may escape :func:`load_tree`.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
 import py_trees
-import yaml
 from py_trees.common import ParallelPolicy
 
 from bomc_bt.errors import BomcError
 from bomc_bt.params import from_mapping
 from bomc_bt.tree.decorators import DECORATORS, DecoratorEnv
 from bomc_bt.tree.leaf import blackboard_key
+from bomc_bt.tree.loop import Loop
 from bomc_bt.tree.registry import Registry
+from bomc_bt.tree.spec import as_list, check_keys, check_ports, describe, is_file, node_name, parse_yaml, remap_spec
 
 Node = py_trees.behaviour.Behaviour
 TreeError = BomcError
@@ -32,9 +33,9 @@ FORMAT_VERSION = 1
 MAX_DEPTH = 64  # deeper is a mistake (or a recursive YAML alias), not a mission
 MAX_NODES = 10_000  # bounds the work an alias-heavy file can cause
 
-COMPOSITES = ("sequence", "selector", "parallel")
+COMPOSITES = ("sequence", "selector", "parallel", "loop")
 NODE_KINDS = ("behaviour", "subtree", *COMPOSITES, *DECORATORS)
-FILE_KEYS = ("version", "name", "description", "include", "subtrees", "root")
+FILE_KEYS = ("version", "name", "description", "values", "include", "subtrees", "root")
 PARALLEL_POLICIES = ("success_on_all", "success_on_one", "success_on_selected")
 
 
@@ -44,13 +45,16 @@ def load_tree(
     context: Any,
     clock: Callable[[], float],
     extra_search_paths: Iterable[str | Path] = (),
+    require_ports: bool = False,
 ) -> Node:
     """Build the tree in ``path``; leaves get ``context``, timeouts read ``clock``.
 
     Included files are looked up next to the including file, then in
-    ``extra_search_paths`` (e.g. the installed ``share/bomc-bt/trees``).
+    ``extra_search_paths`` (e.g. the installed ``share/bomc-bt/trees``). A leaf's
+    ``ports:`` is always checked against the keys it declares; ``require_ports`` also
+    makes it mandatory for every leaf that has keys (the shipped trees list them all).
     """
-    builder = _Builder(registry, context, clock, [Path(p) for p in extra_search_paths])
+    builder = _Builder(registry, context, clock, [Path(p) for p in extra_search_paths], require_ports)
     try:
         return builder.build_file(Path(path))
     except RecursionError:
@@ -77,7 +81,9 @@ class _Frame:
 class _Builder:
     """Reads the files, then turns YAML nodes into behaviours, tracking node paths."""
 
-    def __init__(self, registry: Registry, context: Any, clock: Callable[[], float], search: list[Path]):
+    def __init__(self, registry: Registry, context: Any, clock: Callable[[], float], search: list[Path],
+                 require_ports: bool = False):
+        self.require_ports = require_ports
         self.registry = registry
         self.context = context
         self.clock = clock
@@ -101,9 +107,9 @@ class _Builder:
 
     def read_file(self, path: Path, chain: tuple[Path, ...]) -> dict:
         """Parse ``path``, load its includes, register its subtrees; returns its mapping."""
-        data = _parse_yaml(path)
+        data = parse_yaml(path)
         if not isinstance(data, dict):
-            raise BomcError(f"a tree file must be a mapping, got {_describe(data)}", path)
+            raise BomcError(f"a tree file must be a mapping, got {describe(data)}", path)
         for key in data:
             if key not in FILE_KEYS:
                 raise BomcError(f"unknown key (expected one of: {', '.join(FILE_KEYS)})", path, str(key))
@@ -112,23 +118,25 @@ class _Builder:
             raise BomcError(f"unsupported format version {version!r} (this is version 1)", path, "version")
         for key in ("name", "description"):
             if key in data and not isinstance(data[key], str):
-                raise BomcError(f"must be a string, got {_describe(data[key])}", path, key)
+                raise BomcError(f"must be a string, got {describe(data[key])}", path, key)
+        if not isinstance(data.get("values", {}), dict):  # named values, used through YAML anchors
+            raise BomcError(f"must be a mapping of name: value, got {describe(data['values'])}", path, "values")
         resolved = path.resolve()
         self.loaded.add(resolved)
-        for i, include in enumerate(_as_list(data.get("include"), path, "include")):
+        for i, include in enumerate(as_list(data.get("include"), path, "include")):
             self.include(include, path, f"include[{i}]", (*chain, resolved))
         subtrees = data.get("subtrees") or {}
         if not isinstance(subtrees, dict):
-            raise BomcError(f"must be a mapping of name: node, got {_describe(subtrees)}", path, "subtrees")
+            raise BomcError(f"must be a mapping of name: node, got {describe(subtrees)}", path, "subtrees")
         for name, spec in subtrees.items():
             self.define(name, spec, path)
         return data
 
     def include(self, name: Any, path: Path, where: str, chain: tuple[Path, ...]) -> None:
         if not isinstance(name, str) or not name:
-            raise BomcError(f"must be a file name, got {_describe(name)}", path, where)
+            raise BomcError(f"must be a file name, got {describe(name)}", path, where)
         candidates = [path.parent / name, *(base / name for base in self.search)]
-        found = next((c for c in candidates if _is_file(c)), None)
+        found = next((c for c in candidates if is_file(c)), None)
         if found is None:
             looked = ", ".join(str(c.parent) for c in candidates)
             raise BomcError(f"include file {name!r} not found (looked in: {looked})", path, where)
@@ -141,7 +149,7 @@ class _Builder:
 
     def define(self, name: Any, spec: Any, path: Path) -> None:
         if not isinstance(name, str) or not name:
-            raise BomcError(f"subtree names must be strings, got {_describe(name)}", path, "subtrees")
+            raise BomcError(f"subtree names must be strings, got {describe(name)}", path, "subtrees")
         where = f"subtrees.{name}"
         if name in self.subtrees:
             first = self.subtrees[name].file
@@ -168,10 +176,10 @@ class _Builder:
         if self.nodes > MAX_NODES:
             raise BomcError(f"more than {MAX_NODES} nodes", file, where)
         if not isinstance(spec, dict):
-            raise BomcError(f"expected a node (a mapping), got {_describe(spec)}", file, where)
+            raise BomcError(f"expected a node (a mapping), got {describe(spec)}", file, where)
         kinds = [key for key in spec if key in NODE_KINDS]
         if not kinds:
-            unknown = [k for k in spec if k not in ("name", "children", "child", "params", "remap", "memory")]
+            unknown = [k for k in spec if k not in ("name", "children", "child", "params", "remap", "memory", "ports")]
             hint = f"unknown key {unknown[0]!r}; " if unknown else ""
             raise BomcError(
                 f"{hint}a node needs one of: behaviour, subtree, {', '.join(COMPOSITES)}, "
@@ -192,38 +200,46 @@ class _Builder:
         return self.decorator(kind, spec, file, where, depth)
 
     def leaf(self, spec: dict, file: Path, where: str) -> Node:
-        _check_keys(spec, ("behaviour", "name", "params", "remap"), file, where)
+        check_keys(spec, ("behaviour", "name", "params", "remap", "ports"), file, where)
         behaviour = spec["behaviour"]
         if not isinstance(behaviour, str):
-            raise BomcError(f"must name a behaviour, got {_describe(behaviour)}", file, f"{where}.behaviour")
+            raise BomcError(f"must name a behaviour, got {describe(behaviour)}", file, f"{where}.behaviour")
         if behaviour not in self.registry:
             known = ", ".join(self.registry.names()) or "none registered"
             raise BomcError(f"unknown behaviour {behaviour!r} (known: {known})", file, where)
-        name = _name(spec.get("name", behaviour), file, where)
-        remap = _remap(spec.get("remap"), file, f"{where}.remap")
+        name = node_name(spec.get("name", behaviour), file, where)
+        remap = remap_spec(spec.get("remap"), file, f"{where}.remap")
         cls = self.registry.get(behaviour)
         unknown = sorted(set(remap) - set(cls.logical_keys()))
         if unknown:
             keys = ", ".join(cls.logical_keys()) or "none"
             message = f"{behaviour} has no blackboard key {unknown[0]!r} (its keys: {keys})"
             raise BomcError(message, file, f"{where}.remap")
+        self.ports(spec, cls, remap, file, where)
         resolved = {key: self.key(remap.get(key, key)) for key in cls.logical_keys()}
         params = spec.get("params")
         return self.registry.create(behaviour, name, params, self.context, resolved, file=file, where=where)
 
+    def ports(self, spec: dict, cls: type, remap: dict[str, str], file: Path, where: str) -> None:
+        """Check the leaf's ``ports:`` (required with ``require_ports`` when it has keys)."""
+        reads = tuple(remap.get(k, k) for k in cls.reads)
+        writes = tuple(remap.get(k, k) for k in cls.writes)
+        if "ports" in spec or (self.require_ports and (reads or writes)):
+            check_ports(spec.get("ports"), reads, writes, file, f"{where}.ports")
+
     def reference(self, spec: dict, file: Path, where: str, depth: int) -> Node:
-        _check_keys(spec, ("subtree", "name", "remap"), file, where)
+        check_keys(spec, ("subtree", "name", "remap"), file, where)
         target = spec["subtree"]
         if not isinstance(target, str):
-            raise BomcError(f"must name a subtree, got {_describe(target)}", file, f"{where}.subtree")
+            raise BomcError(f"must name a subtree, got {describe(target)}", file, f"{where}.subtree")
         if target not in self.subtrees:
             known = ", ".join(sorted(self.subtrees)) or "none defined"
             raise BomcError(f"unknown subtree {target!r} (defined: {known})", file, where)
         if target in self.active:
             cycle = " -> ".join([*self.active[self.active.index(target):], target])
             raise BomcError(f"subtree cycle: {cycle}", file, where)
-        name = _name(spec["name"], file, where) if "name" in spec else None
-        frame = _Frame(_remap(spec.get("remap"), file, f"{where}.remap"))
+        name = node_name(spec["name"], file, where) if "name" in spec else None
+        frame = _Frame(remap_spec(spec.get("remap"), file, f"{where}.remap"))
         definition = self.subtrees[target]
         self.referenced.add(target)
         self.active.append(target)
@@ -244,10 +260,13 @@ class _Builder:
         return node
 
     def composite(self, kind: str, spec: dict, file: Path, where: str, depth: int) -> Node:
-        extra = ("memory",) if kind != "parallel" else ("policy", "synchronise", "selected")
-        _check_keys(spec, (kind, "children", *extra), file, where)
-        name = _name(spec[kind], file, where)
+        extra = {"parallel": ("policy", "synchronise", "selected"), "loop": ("until",)}.get(kind, ("memory",))
+        check_keys(spec, (kind, "children", *extra), file, where)
+        name = node_name(spec[kind], file, where)
         children = self.children(spec, file, where, depth)
+        if kind == "loop":
+            until = self.named_children(spec, "until", children, file, where)
+            return Loop(name=name, children=children, until=until)
         if kind == "parallel":
             policy = self.policy(spec, children, file, where)
             return py_trees.composites.Parallel(name=name, policy=policy, children=children)
@@ -260,7 +279,7 @@ class _Builder:
             )
         memory = spec["memory"]
         if not isinstance(memory, bool):
-            raise BomcError(f"must be true or false, got {_describe(memory)}", file, f"{where}.memory")
+            raise BomcError(f"must be true or false, got {describe(memory)}", file, f"{where}.memory")
         cls = py_trees.composites.Sequence if kind == "sequence" else py_trees.composites.Selector
         return cls(name=name, memory=memory, children=children)
 
@@ -269,7 +288,7 @@ class _Builder:
             raise BomcError("missing (a list of nodes)", file, f"{where}.children")
         items = spec["children"]
         if not isinstance(items, list) or not items:
-            message = f"must be a non-empty list of nodes, got {_describe(items)}"
+            message = f"must be a non-empty list of nodes, got {describe(items)}"
             raise BomcError(message, file, f"{where}.children")
         children = []
         seen: dict[str, int] = {}
@@ -289,11 +308,11 @@ class _Builder:
     def policy(self, spec: dict, children: list, file: Path, where: str) -> ParallelPolicy.Base:
         policy = spec.get("policy")
         if policy not in PARALLEL_POLICIES:
-            got = "missing" if "policy" not in spec else f"got {_describe(policy)}"
+            got = "missing" if "policy" not in spec else f"got {describe(policy)}"
             raise BomcError(f"must be one of {', '.join(PARALLEL_POLICIES)} ({got})", file, f"{where}.policy")
         synchronise = spec.get("synchronise", True)
         if not isinstance(synchronise, bool):
-            message = f"must be true or false, got {_describe(synchronise)}"
+            message = f"must be true or false, got {describe(synchronise)}"
             raise BomcError(message, file, f"{where}.synchronise")
         if policy == "success_on_one" and "synchronise" in spec:
             raise BomcError("does not apply to success_on_one", file, f"{where}.synchronise")
@@ -303,29 +322,32 @@ class _Builder:
             if policy == "success_on_one":
                 return ParallelPolicy.SuccessOnOne()
             return ParallelPolicy.SuccessOnAll(synchronise=synchronise)
+        selected = self.named_children(spec, "selected", children, file, where)
+        return ParallelPolicy.SuccessOnSelected(children=selected, synchronise=synchronise)
+
+    def named_children(self, spec: dict, key: str, children: list, file: Path, where: str) -> list[Node]:
+        """The children named in ``spec[key]`` (a parallel's ``selected``, a loop's ``until``)."""
         by_name = {child.name: child for child in children}
-        selected = _as_list(spec.get("selected"), file, f"{where}.selected")
-        if not selected:
-            raise BomcError("missing: the names of the children that must succeed", file, f"{where}.selected")
-        for i, name in enumerate(selected):
+        names = as_list(spec.get(key), file, f"{where}.{key}")
+        if not names:
+            raise BomcError(f"missing: the names of the children ({key})", file, f"{where}.{key}")
+        for i, name in enumerate(names):
             if not isinstance(name, str) or name not in by_name:
                 raise BomcError(
-                    f"{_describe(name)} is not a child name (children: {', '.join(by_name)})",
+                    f"{describe(name)} is not a child name (children: {', '.join(by_name)})",
                     file,
-                    f"{where}.selected[{i}]",
+                    f"{where}.{key}[{i}]",
                 )
-        return ParallelPolicy.SuccessOnSelected(
-            children=[by_name[n] for n in dict.fromkeys(selected)], synchronise=synchronise
-        )
+        return [by_name[n] for n in dict.fromkeys(names)]
 
     def decorator(self, kind: str, spec: dict, file: Path, where: str, depth: int) -> Node:
         if "children" in spec:
             message = "a decorator wraps exactly one 'child:', not 'children:'"
             raise BomcError(message, file, f"{where}.children")
-        _check_keys(spec, (kind, "name", "child"), file, where)
+        check_keys(spec, (kind, "name", "child"), file, where)
         decorator = DECORATORS[kind]
         params = from_mapping(decorator.Params, spec[kind], file, f"{where}.{kind}")
-        name = _name(spec.get("name", decorator.default_name), file, where)
+        name = node_name(spec.get("name", decorator.default_name), file, where)
         if "child" not in spec:
             raise BomcError(f"missing: {kind} wraps exactly one node", file, f"{where}.child")
         item = spec["child"]
@@ -342,76 +364,3 @@ class _Builder:
             frame.used.add(key)
             key = frame.remap.get(key, key)
         return blackboard_key(key)
-
-
-# --------------------------------------------------------------------- helpers
-
-
-def _parse_yaml(path: Path) -> Any:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise BomcError("tree file not found", path) from None
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise BomcError(f"cannot read the tree file: {exc}", path) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        at = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-        raise BomcError(f"invalid YAML: {at}{exc.problem or exc.context}", path) from None
-    except Exception as exc:  # noqa: BLE001 - YAML values pyyaml cannot build (bad dates, ...)
-        raise BomcError(f"invalid YAML: {exc}", path) from None
-
-
-def _is_file(path: Path) -> bool:
-    try:
-        return path.is_file()
-    except (OSError, ValueError):  # a name with a NUL byte, too long, ...
-        return False
-
-
-def _check_keys(spec: dict, allowed: tuple[str, ...], file: Path, where: str) -> None:
-    for key in spec:
-        if key not in allowed:
-            raise BomcError(f"unknown key {key!r} here (expected one of: {', '.join(allowed)})", file, where)
-
-
-def _name(value: Any, file: Path, where: str) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise BomcError(f"a node name must be a non-empty string, got {_describe(value)}", file, where)
-    return value
-
-
-def _remap(value: Any, file: Path, where: str) -> dict[str, str]:
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise BomcError(f"must be a mapping of key: blackboard key, got {_describe(value)}", file, where)
-    remap = {}
-    for key, target in value.items():
-        for item in (key, target):
-            try:
-                blackboard_key(item)
-            except ValueError as exc:
-                raise BomcError(str(exc), file, where) from None
-        remap[key.lstrip("/")] = target.lstrip("/")
-    return remap
-
-
-def _as_list(value: Any, file: Path, where: str) -> list:
-    if value is None:
-        return []
-    if not isinstance(value, list):
-        raise BomcError(f"must be a list, got {_describe(value)}", file, where)
-    return value
-
-
-def _describe(value: Any) -> str:
-    if value is None:
-        return "null"
-    if isinstance(value, dict):
-        return "a mapping"
-    if isinstance(value, list):
-        return f"a list of {len(value)}"
-    return f"{type(value).__name__} {value!r}"[:60]

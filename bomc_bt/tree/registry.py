@@ -79,6 +79,11 @@ class Registry:
             known = ", ".join(self.names()) or "none registered"
             raise BomcError(f"unknown behaviour {behaviour!r} (known: {known})", file, where or None)
         cls = self._leaves[behaviour]
+        fixed = sorted(set(params or ()) & set(cls.config_params)) if isinstance(params, Mapping) else []
+        if fixed:
+            path = cls.config_params[fixed[0]]
+            message = f"{fixed[0]} is the configuration's {path}: set it there, not in the tree"
+            raise BomcError(message, file, f"{where}.params" if where else "params")
         if not isinstance(params, cls.Params):
             params = from_mapping(cls.Params, params, file, f"{where}.params" if where else "params")
         try:

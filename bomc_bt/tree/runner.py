@@ -15,6 +15,8 @@ from typing import Protocol
 import py_trees
 from py_trees.common import Status
 
+from bomc_bt.tree.leaf import Leaf
+
 
 class Clocked(Protocol):
     """The part of the robot port the runner needs."""
@@ -75,9 +77,18 @@ class TreeRunner:
         """Robot seconds since :meth:`run` started (0 before)."""
         return 0.0 if self.start_time is None else self.robot.now() - self.start_time
 
+    def clear_ports(self) -> None:
+        """Forget what an earlier run in this process left on the leaves' keys: a mission
+        starts with an empty blackboard, as it would in a fresh process."""
+        for node in self.root.iterate():
+            if isinstance(node, Leaf):
+                for key in node.keys.values():
+                    py_trees.blackboard.Blackboard.unset(key)
+
     def run(self) -> RunResult:
         """Set the tree up and tick it until it ends; always leaves no leaf running."""
         self.tree.setup()
+        self.clear_ports()
         self.start_time = self.robot.now()
         status, reason = Status.INVALID, "stopped"
         try:

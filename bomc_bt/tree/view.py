@@ -18,11 +18,16 @@ from typing import Any, TextIO
 import py_trees
 from py_trees.common import Status
 
+from bomc_bt.tree.leaf import Leaf
+from bomc_bt.tree.loop import Loop
+
 SYMBOLS = {Status.SUCCESS: "✔", Status.FAILURE: "✕", Status.RUNNING: "●", Status.INVALID: "·"}
 
 
 def kind_of(node: py_trees.behaviour.Behaviour) -> str:
-    """The node's kind as a tree file spells it: sequence, selector, parallel, decorator, behaviour."""
+    """The node's kind as a tree file spells it: sequence, selector, parallel, loop, decorator, behaviour."""
+    if isinstance(node, Loop):
+        return "loop"
     if isinstance(node, py_trees.composites.Sequence):
         return "sequence"
     if isinstance(node, py_trees.composites.Selector):
@@ -44,6 +49,17 @@ def snapshot(root: py_trees.behaviour.Behaviour) -> dict[str, Any]:
         "feedback": root.feedback_message,
         "children": [snapshot(child) for child in root.children],
     }
+
+
+def tree_ports(root: py_trees.behaviour.Behaviour) -> dict[str, dict[str, list[str]]]:
+    """Blackboard key -> the names of the leaves that read and write it (the tree's data flow)."""
+    ports: dict[str, dict[str, list[str]]] = {}
+    for node in root.iterate():
+        if isinstance(node, Leaf):
+            for kind, logical in (("reads", node.reads), ("writes", node.writes)):
+                for key in logical:
+                    ports.setdefault(node.keys[key], {"reads": [], "writes": []})[kind].append(node.name)
+    return ports
 
 
 def render_tree(root: py_trees.behaviour.Behaviour, width: int | None = None) -> list[str]:
@@ -83,7 +99,7 @@ class TerminalView:
         self.interval_wall_s = interval_wall_s
         self.interval_sim_s = interval_sim_s
         self.progress = progress
-        self.tty = tty if tty is not None else bool(getattr(self.stream, "isatty", lambda: False)())
+        self.tty = tty if tty is not None else self.stream.isatty()
         self.wall_clock = wall_clock
         self.root: py_trees.behaviour.Behaviour | None = None
         self._drawn_lines = 0

@@ -5,8 +5,11 @@
 (the graph after each session and the difference between two). Standard library only.
 """
 
+from bomc_bt.viewer.live import ViewerHook
+from bomc_bt.viewer.sections import diff_nodes
 from bomc_bt.viewer.server import DEFAULT_PORT, Server, serve_live, serve_site
-from bomc_bt.viewer.state import SiteView, StateStore, ViewerHook, ViewerParams, diff_nodes
+from bomc_bt.viewer.site import SiteView
+from bomc_bt.viewer.store import StateStore, ViewerParams
 
 __all__ = [
     "DEFAULT_PORT", "Server", "SiteView", "StateStore", "ViewerHook", "ViewerParams", "diff_nodes",

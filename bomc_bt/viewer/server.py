@@ -31,7 +31,9 @@ from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 from bomc_bt.errors import BomcError
-from bomc_bt.viewer.state import SiteView, StateStore, ViewerHook, ViewerParams, load_site
+from bomc_bt.viewer.live import ViewerHook
+from bomc_bt.viewer.site import SiteView, load_site
+from bomc_bt.viewer.store import StateStore, ViewerParams
 
 STATIC = Path(__file__).parent / "static"
 HOST = "127.0.0.1"

@@ -84,8 +84,8 @@ function onTreeClick(e) {
 }
 
 function renderBlackboard(rows) {
-  $("blackboard").innerHTML = rows.map(([k, v]) => `<tr data-key="${esc(k)}"><td>${esc(k)}</td><td>${esc(v)}</td></tr>`).join("")
-    || '<tr><td colspan="2">(empty)</td></tr>';
+  $("blackboard").innerHTML = rows.map(([k, v, who]) => `<tr data-key="${esc(k)}" title="${esc(who || "")}"><td>${esc(k)}</td><td>${esc(v)}</td><td class="ports">${esc(who || "")}</td></tr>`).join("")
+    || '<tr><td colspan="3">(empty)</td></tr>';
 }
 
 function renderProgress(p) {

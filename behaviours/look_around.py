@@ -1,0 +1,62 @@
+"""LookAround: at a waypoint, turn the camera towards nodes worth another look.
+
+The head turns are :class:`bomc_bt.look_around.HeadTurns` (which headings, the dwell
+after each turn, the deadline); this leaf sends each turn as a navigation goal on the
+spot and says what its outcomes mean: a turn done starts the dwell, a turn that failed
+moves on to the next heading, and running out of time ends the look-around successfully
+(it is a best effort, never a reason to fail the waypoint).
+"""
+
+from __future__ import annotations
+
+import math
+
+from py_trees.common import Status
+
+from bomc_bt.geometry import Pose2D
+from bomc_bt.look_around import LookAroundParams, plan_head_turns
+from bomc_bt.tree.action import ActionLeaf
+from bomc_bt.tree.registry import register
+
+
+@register("LookAround")
+class LookAround(ActionLeaf):
+    """Turns the camera towards nodes this pass has not yet confirmed, or confirmed so long
+    ago (``refresh_after``) that they may have gone since."""
+
+    Params = LookAroundParams
+    config_params = {"radius": "projection.expect_range"}
+
+    def send(self) -> None:
+        ctx = self.context
+        self.pose = ctx.robot.pose()
+        self.turns = plan_head_turns(ctx.graph, self.pose, ctx.session, ctx.robot.live_map(), self.params,
+                                     ctx.config.camera.hfov_deg, ctx.now())
+        return None  # the first turn starts on the first tick, like every later one
+
+    def timeout(self) -> float:
+        return self.params.timeout
+
+    def before_poll(self) -> Status | None:
+        return Status.RUNNING if self.turns.dwelling(self.context.now()) else None
+
+    def idle(self) -> Status:
+        heading = self.turns.next_heading(self.context.now())
+        if heading is None:
+            self.feedback_message = "nothing left to check here"
+            return Status.SUCCESS
+        self.handle = self.context.robot.navigate(Pose2D(self.pose.x, self.pose.y, heading))
+        self.feedback_message = f"looking towards {math.degrees(heading):.0f}°, {len(self.turns.headings)} more"
+        return Status.RUNNING
+
+    def on_success(self) -> Status:
+        self.turns.turned(self.context.now())
+        self.handle = None
+        return Status.RUNNING
+
+    def on_failure(self, status) -> Status:
+        self.handle = None
+        return self.idle()
+
+    def on_timeout(self) -> Status:
+        return Status.SUCCESS

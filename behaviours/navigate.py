@@ -1,0 +1,80 @@
+"""NavigateTo: drive to the blackboard ``goal`` (a waypoint or a detour).
+
+Besides success, it tells whether the goal was reached by a detour: when the robot drove
+much farther than the map's shortest path, something the map does not have was in the way
+(``nav_detour``, which ``MarkWaypoint`` records). The shortest paths come from one
+:class:`~bomc_bt.planner.GridPlanner` on the saved map per mission (``ctx.map_planner``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from py_trees.common import Status
+
+from bomc_bt.geometry import Pose2D
+from bomc_bt.monitor_pass import reached_by_detour
+from bomc_bt.planner import GridPlanner
+from bomc_bt.robot import Handle
+from bomc_bt.tree.action import ActionLeaf
+from bomc_bt.tree.registry import register
+
+
+@dataclass
+class NavigateToParams:
+    timeout: float = 240.0  # [s] robot time for one goal
+    # [-] a goal reached after driving more than detour_ratio times the map's shortest path
+    # plus detour_margin metres went around something the map does not have: a detour
+    detour_ratio: float = 1.3
+    detour_margin: float = 2.0  # [m] see detour_ratio
+
+
+@register("NavigateTo")
+class NavigateTo(ActionLeaf):
+    """Drives to the blackboard goal; fails on abort, blockage or timeout (robot clock)."""
+
+    Params = NavigateToParams
+    reads = ("goal",)
+    writes = ("nav_failure", "nav_detour")
+
+    def send(self) -> Handle:
+        ctx = self.context
+        self.goal: Pose2D = self.get("goal")
+        handle = ctx.robot.navigate(self.goal)
+        self.start_odometer = ctx.robot.distance_travelled
+        pose = ctx.robot.pose()
+        self.expected = math.inf
+        if pose is not None:
+            if ctx.map_planner is None:
+                ctx.map_planner = GridPlanner(ctx.robot.live_map(), ctx.config.sim.planner)
+            self.expected = ctx.map_planner.distance((pose.x, pose.y), (self.goal.x, self.goal.y))
+        self.set("nav_detour", False)
+        return handle
+
+    def timeout(self) -> float:
+        return self.params.timeout
+
+    def on_success(self) -> Status:
+        driven = self.context.robot.distance_travelled - self.start_odometer
+        p = self.params
+        detour = reached_by_detour(driven, self.expected, p.detour_ratio, p.detour_margin)
+        self.set("nav_detour", detour)
+        way = f" by a detour ({driven:.0f} m for {self.expected:.0f} m)" if detour else ""
+        self.feedback_message = f"reached ({self.goal.x:.1f}, {self.goal.y:.1f}){way}"
+        return Status.SUCCESS
+
+    def on_failure(self, status) -> Status:
+        self.set("nav_failure", f"{status.value}: {self.handle.message}")
+        return super().on_failure(status)
+
+    def on_timeout(self) -> Status:
+        self.set("nav_failure", "timeout")
+        self.feedback_message = f"no arrival within {self.params.timeout:.0f} s"
+        return Status.FAILURE
+
+    def on_running(self) -> Status:
+        pose = self.context.robot.pose()
+        if pose is not None:
+            self.feedback_message = f"to ({self.goal.x:.1f}, {self.goal.y:.1f}), {pose.distance_to(self.goal):.1f} m"
+        return Status.RUNNING

@@ -1,0 +1,121 @@
+"""Plan the monitor pass: the waypoints, then the gap viewpoints, then the refresh stops.
+
+Each phase's planner is library code (:mod:`bomc_bt.traversal`, :mod:`bomc_bt.viewpoints`,
+:mod:`bomc_bt.refresh`); the pass's bookkeeping and its resume are
+:mod:`bomc_bt.monitor_pass`. Each leaf plans its phase once per pass and succeeds also
+when the phase brings nothing (nothing unseen, nothing stale): an empty phase is no
+failure, and the visit loop that follows simply finds no waypoint left.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from py_trees.common import Status
+
+from bomc_bt.monitor_pass import extend_pass, open_pass
+from bomc_bt.monitoring import GAPS, REFRESH
+from bomc_bt.planner import GridPlanner
+from bomc_bt.refresh import RefreshParams, refresh_viewpoints, stale_nodes
+from bomc_bt.site import write_json
+from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
+from bomc_bt.tree.leaf import Leaf
+from bomc_bt.tree.registry import register
+from bomc_bt.viewpoints import GapParams, gap_viewpoints
+
+EXPECT_RANGE = "projection.expect_range"  # where a frame counts a miss: as far as a viewpoint plans to see
+
+
+@dataclass
+class PlanTraversalParams:
+    clearance: float = 0.45  # [m] waypoints closer to a wall are moved into the open
+
+
+@register("PlanTraversal")
+class PlanTraversal(Leaf):
+    """Samples waypoints along the build trajectory and orders them (greedy TSP + 2-opt);
+    on ``--resume``, picks up the saved pass at its next waypoint instead."""
+
+    Params = PlanTraversalParams
+
+    def update(self) -> Status:
+        ctx = self.context
+        if ctx.traverse is None:
+            ctx.traverse = open_pass(ctx.store, ctx.session, ctx.resume, self.plan)
+            ctx.plan = ctx.traverse.plan
+        ctx.progress.waypoints = len(ctx.traverse.states)
+        ctx.progress.waypoint = ctx.traverse.done_count
+        length = ctx.plan.grid_length or ctx.plan.euclidean_length
+        self.feedback_message = f"{len(ctx.plan.waypoints)} waypoints, {length:.0f} m"
+        return Status.SUCCESS
+
+    def plan(self) -> TraversalPlan:
+        ctx = self.context
+        grid = ctx.robot.live_map()
+        trajectory = load_trajectory(ctx.site.trajectory_csv)
+        planner = GridPlanner(grid, ctx.config.sim.planner)
+        plan = plan_traversal(trajectory, ctx.robot.pose(), ctx.config.traversal, grid_distance=planner.distance)
+        plan.waypoints = snap_to_free(grid, plan.waypoints, self.params.clearance)
+        write_json(ctx.site.plan_json, plan.to_json())
+        return plan
+
+
+class PlanPhase(Leaf):
+    """A leaf that appends one phase's viewpoints to the pass, once per pass."""
+
+    phase = ""
+
+    def extend(self, views: list) -> None:
+        ctx = self.context
+        extend_pass(ctx.store, ctx.session, ctx.traverse, self.phase, views)
+        ctx.progress.waypoints = len(ctx.traverse.states)
+
+
+@register("PlanGapViewpoints")
+class PlanGapViewpoints(PlanPhase):
+    """After the waypoints: adds viewpoints that see the floor the camera has not seen
+    (see :mod:`bomc_bt.viewpoints`)."""
+
+    Params = GapParams
+    config_params = {"view_range": EXPECT_RANGE}
+    phase = GAPS
+
+    def update(self) -> Status:
+        ctx = self.context
+        if ctx.traverse.planned(GAPS) or ctx.perception is None:
+            self.feedback_message = "gaps already covered" if ctx.traverse.planned(GAPS) else "no perception"
+            return Status.SUCCESS
+        views = gap_viewpoints(ctx.robot.live_map(), ctx.perception.coverage.seen, ctx.robot.pose(), self.params)
+        self.extend(views)
+        self.feedback_message = f"{len(views)} gap viewpoints"
+        return Status.SUCCESS
+
+
+@register("PlanRefreshStops")
+class PlanRefreshStops(PlanPhase):
+    """Before the pass ends: adds stops that look again at the nodes confirmed longest ago.
+
+    An object taken away after the camera passed it is only noticed if the camera looks
+    again (see :mod:`bomc_bt.refresh`).
+    """
+
+    Params = RefreshParams
+    config_params = {"view_range": EXPECT_RANGE}
+    phase = REFRESH
+
+    def update(self) -> Status:
+        ctx = self.context
+        pose = ctx.robot.pose()
+        if ctx.traverse.planned(REFRESH) or ctx.graph is None or pose is None:
+            planned = ctx.traverse.planned(REFRESH)
+            self.feedback_message = "refresh already planned" if planned else "nothing to refresh"
+            return Status.SUCCESS
+        now = ctx.now()
+        stale = stale_nodes(ctx.graph.nodes.values(), now, self.params.stale_after)
+        grid = ctx.robot.live_map()
+        distances = GridPlanner(grid, ctx.config.sim.planner).path_lengths_from
+        budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
+        stops = refresh_viewpoints(grid, stale, now, ctx.traverse.reached(), pose, budget, distances, self.params)
+        self.extend(stops)
+        self.feedback_message = f"{len(stops)} refresh stops for {len(stale)} stale nodes"
+        return Status.SUCCESS

@@ -1,0 +1,74 @@
+"""Look Around: the head turns a waypoint makes so the camera confirms nearby nodes.
+
+At a waypoint the robot turns towards nodes this pass has not confirmed (or confirmed so
+long ago that they may have gone since, see :func:`bomc_bt.monitoring.unverified_headings`),
+and faces each heading for ``dwell`` seconds of robot time so frames confirm the node or
+count a miss. :class:`HeadTurns` is that plan as a plain object: which heading comes next,
+whether the robot is still dwelling, when the look-around has run out of time. The
+``LookAround`` leaf only sends the turns it hands out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from bomc_bt.geometry import Pose2D
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.monitoring import unverified_headings
+
+
+@dataclass
+class LookAroundParams:
+    """Settings of Look Around (the ``LookAround`` leaf's ``params`` in ``trees/traverse.yaml``)."""
+
+    radius: float = 5.0  # [m] nodes this close are worth a look (the leaf uses projection.expect_range)
+    max_turns: int = 2  # [count] headings per waypoint at most
+    dwell: float = 1.5  # [s] robot time facing each heading (frames to confirm or miss)
+    timeout: float = 30.0  # [s] robot time for the whole look-around
+    # [s] robot time: a node this pass confirmed longer ago gets a look again, in case it
+    # was taken away after the camera passed (0: only nodes not confirmed yet)
+    refresh_after: float = 600.0
+
+    def __post_init__(self) -> None:
+        if self.radius <= 0 or self.max_turns < 0 or self.dwell < 0 or self.timeout <= 0:
+            raise ValueError("need radius > 0, max_turns >= 0, dwell >= 0 and timeout > 0")
+        if self.refresh_after < 0:
+            raise ValueError("refresh_after must be >= 0 (0: no refresh)")
+
+
+@dataclass
+class HeadTurns:
+    """The headings still to face at one waypoint, the dwell after each turn and the deadline."""
+
+    headings: list[float]
+    dwell: float  # robot seconds facing a heading once the turn succeeded
+    deadline: float  # robot time after which no new turn starts (and a turn in flight is dropped)
+    dwell_until: float | None = field(default=None)
+
+    def dwelling(self, now: float) -> bool:
+        """True while the robot faces the last heading it turned to."""
+        return self.dwell_until is not None and now < self.dwell_until
+
+    def turned(self, now: float) -> None:
+        """The turn succeeded: face that way for ``dwell`` seconds."""
+        self.dwell_until = now + self.dwell
+
+    def timed_out(self, now: float) -> bool:
+        return now >= self.deadline
+
+    def next_heading(self, now: float) -> float | None:
+        """The next heading to turn to; None when there is none left or time is up."""
+        if not self.headings or self.timed_out(now):
+            return None
+        self.dwell_until = None
+        return self.headings.pop(0)
+
+
+def plan_head_turns(graph, pose: Pose2D | None, session: int, grid: OccupancyGrid, params: LookAroundParams,
+                    hfov_deg: float, now: float) -> HeadTurns:
+    """The head turns for a waypoint reached at ``pose`` (none without a pose)."""
+    headings = [] if pose is None else unverified_headings(
+        graph, pose, session, grid, params.radius, math.radians(hfov_deg), params.max_turns,
+        now=now, stale_after=params.refresh_after)
+    return HeadTurns(headings, params.dwell, now + params.timeout)

@@ -1,0 +1,90 @@
+"""The monitor pass's bookkeeping around :class:`~bomc_bt.monitoring.TraversalState`.
+
+A pass is planned once and saved in the site store after every change, so a killed run
+resumes where it stopped (``bomc monitor --resume``): :func:`open_pass` either restores
+the saved plan and progress or plans anew, :func:`save_pass` writes them, and
+:func:`extend_pass` appends a phase's viewpoints (gaps, refresh stops). Two decisions of
+the waypoint loop live here too: :func:`pass_exhausted` (the loop's exit condition) and
+:class:`DetourFinder` (another place near a blocked waypoint that still sees it).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from bomc_bt.geometry import Pose2D
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.monitoring import MISSED, TraversalState, detour_viewpoints
+from bomc_bt.traversal import TraversalPlan
+
+
+def progress_key(session: int) -> str:
+    """Where a pass's waypoint bookkeeping is saved in the store (one key per session)."""
+    return f"traverse/{session}"
+
+
+def save_pass(store, session: int, state: TraversalState) -> None:
+    """Write the pass's progress and plan to the store (what a resume reads back)."""
+    store.set_progress(progress_key(session), {**state.to_json(), "plan": state.plan.to_json()})
+
+
+def open_pass(store, session: int, resume: bool, make_plan: Callable[[], TraversalPlan]) -> TraversalState:
+    """The pass to run: the saved one when resuming (at its next waypoint), else a new plan, saved."""
+    saved = store.get_progress(progress_key(session)) if resume else None
+    if saved and "plan" in saved:
+        state = TraversalState(TraversalPlan.from_json(saved["plan"], store.path))
+        state.restore(saved)
+        return state
+    state = TraversalState(make_plan())
+    save_pass(store, session, state)
+    return state
+
+
+def extend_pass(store, session: int, state: TraversalState, phase: str, views: list[Pose2D]) -> None:
+    """Append ``phase``'s viewpoints to the pass and save it."""
+    state.add_viewpoints(phase, views)
+    save_pass(store, session, state)
+
+
+def pass_exhausted(state: TraversalState) -> bool:
+    """True when :meth:`TraversalState.next` has nothing left to hand out (a pure look ahead)."""
+    if state.index < len(state.states):
+        return False
+    return not any(s == MISSED and i not in state.retried for i, s in enumerate(state.states))
+
+
+def reached_by_detour(driven: float, expected: float, ratio: float, margin: float) -> bool:
+    """A goal reached after driving more than ``ratio`` times the map's shortest path plus
+    ``margin`` metres went around something the map does not have."""
+    return driven > ratio * expected + margin
+
+
+@dataclass
+class DetourParams:
+    """Where the ``FindDetour`` leaf looks for a detour around a blocked waypoint."""
+
+    radius: float = 2.0  # [m] around the blocked waypoint
+    count: int = 6  # [count] candidates considered per waypoint
+    clearance: float = 0.45  # [m] from obstacles
+
+
+@dataclass
+class DetourFinder:
+    """Proposes, one at a time, untried viewpoints near a waypoint that still see it."""
+
+    params: DetourParams
+    tried: dict[int, list[tuple[float, float]]] = field(default_factory=dict)  # waypoint -> places tried
+
+    def next(self, grid: OccupancyGrid, index: int, target: Pose2D) -> Pose2D | None:
+        """The nearest untried detour for waypoint ``index`` at ``target``, facing it; None if none is left."""
+        tried = self.tried.setdefault(index, [])
+        p = self.params
+        options = detour_viewpoints(grid, (target.x, target.y), p.radius, p.count, p.clearance,
+                                    avoid=[(target.x, target.y), *tried])
+        if not options:
+            return None
+        x, y = options[0]
+        tried.append((x, y))
+        return Pose2D(x, y, math.atan2(target.y - y, target.x - x))  # look at the waypoint

@@ -1,0 +1,144 @@
+"""The build's leaves, tick by tick on a scripted robot: start, record, choose, drive,
+blacklist, the loop's exit condition and the outcome."""
+
+from __future__ import annotations
+
+import numpy as np
+import py_trees
+import pytest
+from fake_robot import FakeRobot, key, open_room, tick
+from py_trees.common import Status
+
+from behaviours.explore import (
+    BlacklistGoal,
+    ChooseFrontier,
+    DriveToFrontier,
+    DriveToFrontierParams,
+    ExplorationOutcome,
+    ExplorationOver,
+    RecordTrajectory,
+    StartExploration,
+    StartExplorationParams,
+)
+from bomc_bt.exploration.explorer import DONE, EXPLORING, STUCK, TIME_LIMIT
+from bomc_bt.geometry import Pose2D
+from bomc_bt.robot import Status as Nav
+
+
+@pytest.fixture
+def robot() -> FakeRobot:
+    """A room whose east half is still unknown: one frontier along x = 7 m."""
+    grid = open_room()
+    grid.data[:, 140:] = -1
+    return FakeRobot(grid, Pose2D(3.0, 5.0, 0.0))
+
+
+@pytest.fixture
+def build(ctx):
+    ctx.mission = "build"
+    tick(StartExploration("Start", StartExplorationParams(max_consecutive_failures=2), ctx))
+    return ctx
+
+
+def test_start_exploration_makes_the_explorer_and_the_trajectory_file(build):
+    assert build.explorer.status == EXPLORING and build.explorer.max_consecutive_failures == 2
+    assert build.trajectory is not None and build.site.trajectory_csv.exists()
+
+
+def test_record_trajectory_keeps_running_and_records_the_path(build, robot):
+    leaf = RecordTrajectory("Record", None, build)
+    assert tick(leaf) == Status.RUNNING
+    robot.advance(10.0)
+    robot.place(Pose2D(4.0, 5.0, 0.0))
+    assert tick(leaf) == Status.RUNNING
+    assert build.progress.path_length == pytest.approx(1.0) and build.trajectory.rows == 2
+
+
+def test_choose_frontier_writes_the_goal_and_the_loop_goes_on(build):
+    assert tick(ChooseFrontier("Choose", None, build)) == Status.SUCCESS
+    assert key("goal").xy[0] > 5.0 and build.explorer.goals == 1
+    assert tick(ExplorationOver("Over", None, build)) == Status.FAILURE
+
+
+def test_choose_frontier_with_nothing_left_ends_the_loop_successfully(build, robot):
+    robot.grid.data[:, 140:] = 0  # all mapped
+    robot.grid.data[:, -1] = 100
+    assert tick(ChooseFrontier("Choose", None, build)) == Status.SUCCESS and key("goal") is None
+    assert build.explorer.status == DONE
+    assert tick(ExplorationOver("Over", None, build)) == Status.SUCCESS
+    assert tick(ExplorationOutcome("Outcome", None, build)) == Status.SUCCESS
+
+
+def test_choose_frontier_waits_for_a_pose(build, robot):
+    robot.place(None)
+    assert tick(ChooseFrontier("Choose", None, build)) == Status.RUNNING
+
+
+def drive(build) -> DriveToFrontier:
+    tick(ChooseFrontier("Choose", None, build))
+    return DriveToFrontier("Drive", DriveToFrontierParams(recheck_period=2.0), build)
+
+
+def test_drive_to_frontier_faces_the_frontier_and_succeeds_on_arrival(build, robot):
+    leaf = drive(build)
+    assert tick(leaf) == Status.RUNNING
+    goal = key("goal")
+    assert robot.goals[0].x == goal.xy[0] and abs(robot.goals[0].yaw) < 0.5  # facing east
+    robot.last.finish(Nav.SUCCEEDED, "arrived")
+    assert tick(leaf) == Status.SUCCESS
+
+
+def test_drive_to_frontier_succeeds_early_once_the_frontier_is_mapped(build, robot):
+    leaf = drive(build)
+    tick(leaf)
+    robot.grid.data[:, 140:] = 0
+    robot.advance(2.0)
+    assert tick(leaf) == Status.SUCCESS and leaf.feedback_message == "frontier mapped on the way"
+
+
+def test_drive_to_frontier_failure_is_written_for_blacklist_goal(build, robot):
+    leaf = drive(build)
+    tick(leaf)
+    robot.last.finish(Nav.FAILED, "no path")
+    assert tick(leaf) == Status.FAILURE and key("nav_failure") == "failed: no path"
+    blacklist = BlacklistGoal("Blacklist", None, build)
+    assert tick(blacklist) == Status.SUCCESS and "no path" in blacklist.feedback_message
+    assert build.explorer.blacklist.points  # the frontier is skipped from now on
+
+
+def test_drive_to_frontier_ends_successfully_when_time_is_up(build, robot):
+    leaf = drive(build)
+    tick(leaf)
+    robot.advance(build.explorer.max_time + 1.0)
+    assert tick(leaf) == Status.SUCCESS and build.explorer.status == TIME_LIMIT
+    assert robot.last.status() is Nav.RUNNING  # the next goal pre-empts it; nothing was cancelled
+    assert tick(ExplorationOver("Over", None, build)) == Status.SUCCESS
+    assert tick(ExplorationOutcome("Outcome", None, build)) == Status.SUCCESS
+
+
+def test_drive_to_frontier_halted_cancels_its_goal(build, robot):
+    leaf = drive(build)
+    tick(leaf)
+    leaf.stop(Status.INVALID)
+    assert robot.last.status() is Nav.CANCELLED
+
+
+def test_a_stuck_explorer_ends_the_loop_and_fails_the_build(build, robot):
+    tick(ChooseFrontier("Choose", None, build))
+    for _ in range(2):  # the same goal fails twice without the robot moving
+        leaf = DriveToFrontier("Drive", DriveToFrontierParams(), build)
+        tick(leaf)
+        robot.advance(5.0)  # not refused at once: the robot tried
+        robot.last.finish(Nav.BLOCKED, "no progress")
+        tick(leaf)
+        assert tick(BlacklistGoal("Blacklist", None, build)) == Status.SUCCESS
+    assert build.explorer.status == STUCK
+    assert tick(ExplorationOver("Over", None, build)) == Status.SUCCESS
+    assert tick(ExplorationOutcome("Outcome", None, build)) == Status.FAILURE and "stuck" in build.reason
+
+
+def test_blacklist_goal_has_nothing_to_do_once_exploration_is_over(build):
+    build.explorer.status = DONE
+    py_trees.blackboard.Blackboard.set("/goal", None)
+    assert tick(BlacklistGoal("Blacklist", None, build)) == Status.SUCCESS
+    assert np.size(build.explorer.blacklist.points) == 0

@@ -1,0 +1,190 @@
+"""The monitor pass's leaves, tick by tick on a scripted robot: plan (and resume), the
+waypoint loop's exit condition, next waypoint, detours, marks, gaps, refresh, Look Around."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import py_trees
+from fake_robot import key, tick
+from py_trees.common import Status
+
+from behaviours.look_around import LookAround
+from behaviours.plan_pass import PlanGapViewpoints, PlanRefreshStops, PlanTraversal
+from behaviours.waypoints import FindDetour, MarkWaypoint, MarkWaypointParams, NextWaypoint, WaypointsDone
+from bomc_bt.geometry import Pose2D
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
+from bomc_bt.look_around import LookAroundParams
+from bomc_bt.monitor_pass import DetourParams, progress_key, save_pass
+from bomc_bt.monitoring import DETOURED, GAPS, MISSED, REFRESH, VISITED, Coverage, TraversalState
+from bomc_bt.refresh import RefreshParams
+from bomc_bt.robot import Status as Nav
+from bomc_bt.site import TrajectoryRecorder
+from bomc_bt.traversal import TraversalPlan
+from bomc_bt.viewpoints import GapParams
+
+
+def start_pass(ctx, *points: tuple[float, float]) -> TraversalState:
+    ctx.plan = TraversalPlan([Pose2D(x, y, 0.0) for x, y in points], euclidean_length=100.0)
+    ctx.traverse = TraversalState(ctx.plan)
+    return ctx.traverse
+
+
+def test_plan_traversal_plans_along_the_build_trajectory_and_saves_the_pass(ctx):
+    recorder = TrajectoryRecorder(ctx.site.trajectory_csv, period=0.0)
+    for i in range(40):
+        recorder.record(float(i), 1.0 + i * 0.2, 5.0, 0.0, force=True)
+    recorder.close()
+    leaf = PlanTraversal("Plan", None, ctx)
+    assert tick(leaf) == Status.SUCCESS
+    assert ctx.plan is ctx.traverse.plan and len(ctx.plan.waypoints) >= 2
+    assert ctx.site.plan_json.exists()
+    saved = ctx.store.get_progress(progress_key(ctx.session))
+    assert len(saved["plan"]["waypoints"]) == len(ctx.plan.waypoints) and saved["index"] == 0
+
+
+def test_plan_traversal_on_resume_picks_up_the_saved_pass_at_its_next_waypoint(ctx):
+    state = start_pass(ctx, (2, 2), (4, 4), (6, 6))
+    state.next()
+    state.mark(0, VISITED)
+    save_pass(ctx.store, ctx.session, state)
+    ctx.plan = ctx.traverse = None
+    ctx.resume = True
+    assert tick(PlanTraversal("Plan", None, ctx)) == Status.SUCCESS
+    assert ctx.traverse.index == 1 and ctx.traverse.states[0] == VISITED and ctx.progress.waypoint == 1
+    assert [w.x for w in ctx.plan.waypoints] == [2, 4, 6]
+
+
+def test_next_waypoint_writes_the_goal_and_the_loop_ends_after_one_retry_of_each_missed(ctx):
+    state = start_pass(ctx, (2, 2), (4, 4))
+    done, next_ = WaypointsDone("Done", None, ctx), NextWaypoint("Next", None, ctx)
+    assert tick(done) == Status.FAILURE and tick(next_) == Status.SUCCESS and key("goal") == Pose2D(2, 2, 0)
+    state.mark(0, MISSED)
+    assert tick(done) == Status.FAILURE and tick(next_) == Status.SUCCESS and key("goal") == Pose2D(4, 4, 0)
+    state.mark(1, VISITED)
+    assert tick(done) == Status.FAILURE  # waypoint 1 comes back once
+    assert tick(next_) == Status.SUCCESS and key("goal") == Pose2D(2, 2, 0) and "retry" in next_.feedback_message
+    assert tick(done) == Status.SUCCESS and state.current is None
+    assert tick(next_) == Status.FAILURE
+
+
+def test_mark_waypoint_records_the_state_saves_the_pass_and_tells_a_detour(ctx):
+
+    state = start_pass(ctx, (2, 2), (4, 4))
+    state.next()
+    py_trees.blackboard.Blackboard.set("/nav_detour", True)
+    assert tick(MarkWaypoint("Mark Visited", MarkWaypointParams(VISITED), ctx)) == Status.SUCCESS
+    assert state.states[0] == DETOURED  # reached, but round something the map does not have
+    state.next()
+    py_trees.blackboard.Blackboard.set("/nav_detour", False)
+    tick(MarkWaypoint("Mark Visited", MarkWaypointParams(VISITED), ctx))
+    assert state.states[1] == VISITED
+    assert ctx.store.get_progress(progress_key(ctx.session))["states"] == [DETOURED, VISITED]
+
+
+def test_find_detour_proposes_untried_places_facing_the_waypoint(ctx):
+    state = start_pass(ctx, (5, 5))
+    state.next()
+    leaf = FindDetour("Find", DetourParams(radius=2.0, count=6, clearance=0.45), ctx)
+    assert tick(leaf) == Status.SUCCESS
+    first = key("goal")
+    assert tick(leaf) == Status.SUCCESS
+    second = key("goal")
+    assert first != second and key("detours_tried")[0] == [(first.x, first.y), (second.x, second.y)]
+    for goal in (first, second):
+        assert 0.7 <= math.hypot(goal.x - 5, goal.y - 5) <= 2.0
+        assert abs(math.atan2(5 - goal.y, 5 - goal.x) - goal.yaw) < 1e-9  # faces the waypoint
+
+
+def test_find_detour_fails_when_no_place_sees_the_waypoint(ctx, robot):
+    walls = robot.grid.data
+    walls[88:113, 88:113] = 100
+    walls[92:109, 92:109] = 0  # the waypoint at (5, 5) sits in a closed box
+    state = start_pass(ctx, (5, 5))
+    state.next()
+    assert tick(FindDetour("Find", DetourParams(), ctx)) == Status.FAILURE
+
+
+def test_plan_gap_viewpoints_adds_the_phase_once_and_reads_the_range_from_the_config(ctx, robot):
+    state = start_pass(ctx, (2, 2))
+    ctx.perception = SimpleNamespace(coverage=Coverage(robot.grid))
+    leaf = PlanGapViewpoints("Gaps", GapParams(max_viewpoints=3), ctx)
+    assert leaf.params.view_range == ctx.config.projection.expect_range
+    assert tick(leaf) == Status.SUCCESS and state.planned(GAPS)
+    added = state.phase_count(GAPS)
+    assert 1 <= added <= 3 and len(ctx.store.get_progress(progress_key(1))["states"]) == 1 + added
+    assert tick(leaf) == Status.SUCCESS and state.phase_count(GAPS) == added  # planned once per pass
+
+
+def stale_graph(at: tuple[float, float], seen: float) -> ObjectGraph:
+    graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=1))
+    graph.associate([Observation("chair", np.array([*at, 0.5]), 0.9)], [], 1, seen)
+    return graph
+
+
+def test_plan_refresh_stops_go_back_to_nodes_seen_long_ago(ctx, robot):
+    state = start_pass(ctx, (2, 5), (8, 5))
+    for _ in range(2):
+        state.mark(state.next(), VISITED)
+    ctx.graph = stale_graph((8.5, 6.0), seen=0.0)
+    robot.advance(700.0)
+    leaf = PlanRefreshStops("Refresh", RefreshParams(stale_after=600.0, budget=0.3), ctx)
+    assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == 1
+    assert leaf.feedback_message == "1 refresh stops for 1 stale nodes"
+
+
+def test_plan_refresh_stops_with_nothing_stale_adds_an_empty_phase(ctx, robot):
+    state = start_pass(ctx, (2, 5))
+    state.mark(state.next(), VISITED)
+    ctx.graph = stale_graph((3.0, 6.0), seen=0.0)
+    robot.advance(100.0)
+    assert tick(PlanRefreshStops("Refresh", RefreshParams(stale_after=600.0), ctx)) == Status.SUCCESS
+    assert state.planned(REFRESH) and state.phase_count(REFRESH) == 0
+
+
+def look_around(ctx, **params) -> LookAround:
+    ctx.session = 2  # the node below was confirmed in session 1 only
+    ctx.graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=1),
+                            [Node(0, "chair", np.array([5.0, 8.0, 0.5]), 0.9, 1, 1)])
+    return LookAround("Look", LookAroundParams(**params), ctx)
+
+
+def test_look_around_turns_to_an_unconfirmed_node_dwells_then_succeeds(ctx, robot):
+    leaf = look_around(ctx, dwell=1.5)
+    assert leaf.params.radius == ctx.config.projection.expect_range
+    assert tick(leaf) == Status.RUNNING
+    assert robot.goals == [Pose2D(5.0, 5.0, math.pi / 2)]  # on the spot, towards (5, 8)
+    robot.last.finish(Nav.SUCCEEDED, "turned")
+    assert tick(leaf) == Status.RUNNING  # the dwell starts
+    robot.advance(1.4)
+    assert tick(leaf) == Status.RUNNING
+    robot.advance(0.1)
+    assert tick(leaf) == Status.SUCCESS and len(robot.goals) == 1
+
+
+def test_look_around_skips_a_turn_that_failed(ctx, robot):
+    leaf = look_around(ctx)
+    tick(leaf)
+    robot.last.finish(Nav.FAILED, "cannot turn")
+    assert tick(leaf) == Status.SUCCESS and leaf.feedback_message == "nothing left to check here"
+
+
+def test_look_around_drops_a_turn_still_in_flight_at_its_timeout(ctx, robot):
+    leaf = look_around(ctx, timeout=30.0)
+    tick(leaf)
+    robot.advance(30.0)
+    assert tick(leaf) == Status.SUCCESS and robot.last.status() is Nav.CANCELLED
+
+
+def test_look_around_halted_cancels_its_turn(ctx, robot):
+    leaf = look_around(ctx)
+    tick(leaf)
+    leaf.stop(Status.INVALID)
+    assert robot.last.status() is Nav.CANCELLED
+
+
+def test_look_around_without_a_pose_has_nothing_to_do(ctx, robot):
+    robot.place(None)
+    assert tick(look_around(ctx)) == Status.SUCCESS and robot.goals == []
