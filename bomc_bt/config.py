@@ -26,6 +26,7 @@ from bomc_bt.sim.camera import CameraParams
 from bomc_bt.sim.detector import SimDetectorParams
 from bomc_bt.sim.robot import SimParams
 from bomc_bt.traversal import TraversalParams
+from bomc_bt.yaml_io import read_yaml
 
 
 @dataclass
@@ -73,24 +74,6 @@ def resource_dir(name: str) -> Path:
     raise BomcError(f"cannot find the {name}/ folder (looked in {checkout} and {installed})")
 
 
-def read_yaml(path: Path) -> Any:
-    """Parse a YAML file; syntax errors become one line with the position."""
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise BomcError("file not found", path) from None
-    except OSError as exc:
-        raise BomcError(f"cannot read ({exc.strerror})", path) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "syntax"
-        raise BomcError(f"invalid YAML ({exc.problem})", path, where) from None
-    except yaml.YAMLError as exc:
-        raise BomcError(f"invalid YAML ({exc})", path) from None
-
-
 def load_config(extra: list[str | Path] = (), robot: str | None = "sim") -> Config:
     """Defaults, then ``config/<robot>.yaml`` if present, then each ``extra`` file."""
     config_dir = resource_dir("config")
@@ -100,7 +83,7 @@ def load_config(extra: list[str | Path] = (), robot: str | None = "sim") -> Conf
     paths.extend(Path(p) for p in extra)
     merged: dict = {}
     for path in paths:
-        data = read_yaml(path) or {}
+        data = read_yaml(path, "config file") or {}
         if not isinstance(data, dict):
             raise BomcError("expected a mapping of config sections", path)
         from_mapping(Config, data, path)  # validate this file alone: errors name it

@@ -35,11 +35,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from bomc_bt.errors import BomcError
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid, load_map
+from bomc_bt.yaml_io import read_yaml
 
 FORMAT_VERSION = 1
 DEFAULT_WALL_HEIGHT = 2.5
@@ -276,53 +276,10 @@ def apply_change(objects: dict[str, WorldObject], change: Change, file: str | Pa
 
 
 # -- loading ---------------------------------------------------------------------------------
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate mapping keys (PyYAML silently keeps the last)."""
-
-
-def _construct_mapping(loader: _UniqueKeyLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
-    loader.flatten_mapping(node)
-    out: dict = {}
-    for key_node, value_node in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        try:
-            duplicate = key in out
-        except TypeError:  # unhashable key (a list as a key): let the schema checks reject it
-            raise yaml.constructor.ConstructorError(
-                None, None, "unhashable mapping key", key_node.start_mark) from None
-        if duplicate:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r}", key_node.start_mark)
-        out[key] = loader.construct_object(value_node, deep=deep)
-    return out
-
-
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-
-
-def read_yaml(path: Path) -> Any:
-    """Parse a YAML file; syntax errors become one line with the line number."""
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise BomcError("world file not found", path) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BomcError(f"cannot read ({type(exc).__name__})", path) from None
-    try:
-        return yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass: no arbitrary objects
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
-        problem = " ".join(str(getattr(exc, "problem", None) or exc).split())
-        line = f"line {mark.line + 1}" if mark is not None else None
-        raise BomcError(f"YAML syntax error: {problem}", path, line) from None
-    except RecursionError:
-        raise BomcError("YAML nested too deeply", path) from None
-
-
 def load_world(path: str | Path) -> World:
     """Load and fully validate a world file (format version 1)."""
     path = Path(path)
-    data = read_yaml(path)
+    data = read_yaml(path, "world file")
     return _Parser(path).world(data)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import yaml
 
 from bomc_bt.config import Config, config_to_dict, load_config, resource_dir
+from bomc_bt.errors import BomcError
 
 
 def test_shipped_defaults_match_the_code():
@@ -41,3 +42,14 @@ def test_errors_name_the_file_and_field(tmp_path):
             assert "\n" not in str(exc)
         else:
             raise AssertionError(f"no error for {text!r}")
+
+
+def test_a_key_written_twice_is_an_error_naming_file_line_and_key(tmp_path):
+    path = tmp_path / "mine.yaml"
+    path.write_text("exploration:\n  local_radius: 3.0\n  local_radius: 5.0\n")
+    try:
+        load_config([path])
+    except BomcError as exc:
+        assert str(exc) == f"{path}: line 3: invalid YAML: duplicate key 'local_radius'"
+    else:
+        raise AssertionError("a duplicate key was accepted")

@@ -15,7 +15,6 @@ from pathlib import Path
 from typing import Any
 
 import py_trees
-import yaml
 from py_trees.common import ParallelPolicy
 
 from bomc_bt.errors import BomcError
@@ -23,6 +22,7 @@ from bomc_bt.params import from_mapping
 from bomc_bt.tree.decorators import DECORATORS, DecoratorEnv
 from bomc_bt.tree.leaf import blackboard_key
 from bomc_bt.tree.registry import Registry
+from bomc_bt.yaml_io import read_yaml
 
 Node = py_trees.behaviour.Behaviour
 TreeError = BomcError
@@ -101,7 +101,7 @@ class _Builder:
 
     def read_file(self, path: Path, chain: tuple[Path, ...]) -> dict:
         """Parse ``path``, load its includes, register its subtrees; returns its mapping."""
-        data = _parse_yaml(path)
+        data = read_yaml(path, "tree file")
         if not isinstance(data, dict):
             raise BomcError(f"a tree file must be a mapping, got {_describe(data)}", path)
         for key in data:
@@ -345,23 +345,6 @@ class _Builder:
 
 
 # --------------------------------------------------------------------- helpers
-
-
-def _parse_yaml(path: Path) -> Any:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise BomcError("tree file not found", path) from None
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise BomcError(f"cannot read the tree file: {exc}", path) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        at = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-        raise BomcError(f"invalid YAML: {at}{exc.problem or exc.context}", path) from None
-    except Exception as exc:  # noqa: BLE001 - YAML values pyyaml cannot build (bad dates, ...)
-        raise BomcError(f"invalid YAML: {exc}", path) from None
 
 
 def _is_file(path: Path) -> bool:
