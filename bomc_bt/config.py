@@ -15,17 +15,17 @@ from typing import Any, Literal
 
 import yaml
 
+from bomc_bt.algorithm_params import (
+    ExplorationParams,
+    ProjectionParams,
+    RelocalizationParams,
+    TraversalParams,
+)
 from bomc_bt.errors import BomcError
-from bomc_bt.exploration.dwfe import ExplorationParams
 from bomc_bt.graph import AssociationParams
-from bomc_bt.localization import RelocalizationParams
 from bomc_bt.params import from_mapping, merge
-from bomc_bt.perception.projection import ProjectionParams
 from bomc_bt.ros.params import RosParams
-from bomc_bt.sim.camera import CameraParams
-from bomc_bt.sim.detector import SimDetectorParams
-from bomc_bt.sim.robot import SimParams
-from bomc_bt.traversal import TraversalParams
+from bomc_bt.sim.params import CameraParams, SimDetectorParams, SimParams
 from bomc_bt.yaml_io import read_yaml
 
 

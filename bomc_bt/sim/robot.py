@@ -24,48 +24,23 @@ so results do not depend on who asked. Everything random is seeded from ``seed``
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.planner import GridPlanner, PlannerParams, path_clear_of
+from bomc_bt.planner import GridPlanner, path_clear_of
 from bomc_bt.robot import LaserScan, RequestHandle, RGBDFrame, Status
 from bomc_bt.sim.clock import SimClock
-from bomc_bt.sim.faults import PERSON_RADIUS, FaultParams, People
-from bomc_bt.sim.lidar import Lidar, LidarParams
-from bomc_bt.sim.mapper import Mapper, MapperParams, ObstacleLayer, ObstacleLayerParams
-from bomc_bt.sim.navigation import MotionParams, NavHandle, Navigator
-from bomc_bt.sim.scene import Scene, SceneParams
+from bomc_bt.sim.faults import PERSON_RADIUS, People
+from bomc_bt.sim.lidar import Lidar
+from bomc_bt.sim.mapper import Mapper, ObstacleLayer
+from bomc_bt.sim.navigation import NavHandle, Navigator
+from bomc_bt.sim.params import SimParams
+from bomc_bt.sim.scene import Scene
 from bomc_bt.world import World, WorldObject, apply_change
-
-
-@dataclass
-class LocalizationParams:
-    local_duration: float = 2.0  # s of sim time a relocalization from a hint takes
-    global_duration: float = 6.0  # s of sim time a global relocalization takes
-    correction_time: float = 5.0  # s; time constant of the estimate's error decaying (AMCL)
-    lost_distance: float = 1.0  # m; an estimate this wrong stays wrong (AMCL does not recover)
-    lost_angle: float = 0.5  # rad; likewise for yaw
-
-
-@dataclass
-class SimParams:
-    dt: float = 0.1
-    lidar: LidarParams = field(default_factory=LidarParams)
-    mapper: MapperParams = field(default_factory=MapperParams)
-    motion: MotionParams = field(default_factory=MotionParams)
-    planner: PlannerParams = field(default_factory=PlannerParams)
-    faults: FaultParams = field(default_factory=FaultParams)
-    scene: SceneParams = field(default_factory=SceneParams)
-    obstacles: ObstacleLayerParams = field(default_factory=ObstacleLayerParams)
-    localization: LocalizationParams = field(default_factory=LocalizationParams)
-
-    def __post_init__(self) -> None:
-        if not self.dt > 0:
-            raise ValueError("dt must be > 0")
 
 
 class RelocHandle(RequestHandle):

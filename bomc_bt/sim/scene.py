@@ -20,20 +20,14 @@ What is solid for whom (kept deliberately simple):
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.sim.lidar import DistanceField
+from bomc_bt.sim.params import SceneParams
 from bomc_bt.world import Obstacle, World, WorldObject
-
-
-@dataclass
-class SceneParams:
-    lidar_height: float = 0.25  # m above the floor
-    collision_height: float = 0.4  # m; boxes whose bottom is below this block the base
 
 
 def _spans(bottom: float, top: float, height: float) -> bool:
