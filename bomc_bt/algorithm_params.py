@@ -57,7 +57,7 @@ class RelocalizationParams:
     see_through_tolerance: float = 0.1  # [m] a beam may pass this close to a wall before its end
     wall_probe: tuple[float, ...] = (0.12, 0.2, 0.3)  # [list] m before each beam's end checked during refinement
     ambiguity_distance: float = 1.0  # [m] a runner-up farther than this is a different pose
-    ambiguity_angle: float = math.radians(45.0)  # [rad] ... or one facing this much elsewhere
+    ambiguity_angle: float = math.radians(45.0)  # [rad] a runner-up facing this much elsewhere is a different pose
     max_beams: int = 180  # [count] beams used for the local coarse grid and refinement (evenly subsampled)
     final_beams: int = 720  # [count] beams used by the last refinement, where few poses are left to score
     min_beams: int = 20  # [count] fewer valid beams than this can never be confident

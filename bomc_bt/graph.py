@@ -130,20 +130,20 @@ class Event:
 class AssociationParams:
     """Tunables of association (``config/*.yaml`` key ``association``)."""
 
-    default_distance: float = 0.7  # delta, the paper's 0.7 m
-    per_category: dict[str, float] = field(default_factory=dict)  # delta_c overrides
-    mode: Literal["paper", "robust"] = "robust"
-    confirm_misses: int = 3  # robust: misses before a node is removed
-    confirm_interval: float = 0.5  # robust: s of robot time between two counted misses
-    move_radius: float = 3.0  # robust: how far a removed/pending object may have moved
-    position_smoothing: float = 0.3  # robust: running-average weight of a new observation
-    report_distance: float = 0.1  # robust: drift (m) that makes a refresh an "updated" event
-    vertical_weight: float = 0.5  # robust: weight of height differences in distances (paper: 1)
-    extent_gate: float = 2.0  # robust: a big object's own spread widens its gate, up to this times delta
-    confirm_detections: int = 2  # robust: frames (confirm_interval apart) that must see a new object
-    tentative_ttl: float = 10.0  # robust: s a first sighting waits for its confirmation
-    footprint_overlap: float = 0.5  # robust: box overlap (of the smaller box) that makes the same object; 0: off
-    # robust: m between a truncated view's box and a big object's footprint that still touch
+    default_distance: float = 0.7  # [m] delta: an observation this near a node of its category is that node
+    per_category: dict[str, float] = field(default_factory=dict)  # [m] delta_c: per-category overrides of delta
+    mode: Literal["paper", "robust"] = "robust"  # [choice] the paper's Algorithm 2, or the robust variant
+    confirm_misses: int = 3  # [count] robust: misses before a node is removed
+    confirm_interval: float = 0.5  # [s] robust: robot time between two counted misses
+    move_radius: float = 3.0  # [m] robust: how far a removed/pending object may have moved
+    position_smoothing: float = 0.3  # [-] robust: running-average weight of a new observation
+    report_distance: float = 0.1  # [m] robust: drift that makes a refresh an "updated" event
+    vertical_weight: float = 0.5  # [-] robust: weight of height differences in distances (paper: 1)
+    extent_gate: float = 2.0  # [-] robust: a big object's own spread widens its gate, up to this times delta
+    confirm_detections: int = 2  # [count] robust: frames (confirm_interval apart) that must see a new object
+    tentative_ttl: float = 10.0  # [s] robust: how long a first sighting waits for its confirmation
+    footprint_overlap: float = 0.5  # [-] robust: box overlap (of the smaller box) that makes the same object; 0: off
+    # [m] robust: gap between a truncated view's box and a big object's footprint that still touch
     # (about the width of what hides the rest: a chair in front of a table)
     footprint_touch: float = 0.5
 

@@ -107,9 +107,8 @@ class FaultParams:
 
 @dataclass
 class SceneParams:
-    """What of the world's 3-D scene the base collides with."""
+    """What of the world's 3-D scene the base collides with (the laser's plane is sim.lidar.height)."""
 
-    lidar_height: float = 0.25  # [m] height of the scan plane above the floor
     collision_height: float = 0.4  # [m] boxes whose bottom is below this block the base
 
 

@@ -80,8 +80,7 @@ class SimRobot:
         self._reloc_rng = np.random.default_rng(streams[3])
         self._objects = world.objects_in_session(session)
         self._pending = list(world.during_changes(session))
-        self.scene = Scene(world, self._objects, world.obstacles_in_session(session),
-                           replace(p.scene, lidar_height=p.lidar.height))
+        self.scene = Scene(world, self._objects, world.obstacles_in_session(session), p.scene, p.lidar.height)
         self.people = People(self.scene, p.faults.people, p.faults.person_speed, people_rng,
                              keep_clear=(world.start.x, world.start.y))
         self.lidar = Lidar(p.lidar)
