@@ -19,7 +19,7 @@ from bomc_bt.algorithm_params import (
     RelocalizationParams,
     TraversalParams,
 )
-from bomc_bt.config_docs import documented_yaml
+from bomc_bt.config_docs import documented_yaml, plain
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import AssociationParams
 from bomc_bt.params import from_mapping, merge
@@ -134,16 +134,8 @@ def defaults_yaml() -> str:
     return DEFAULTS_HEADER + documented_yaml(Config())
 
 
-def config_to_dict(config: Config) -> dict:
-    """The effective configuration as plain YAML-able data (``bomc config``)."""
+def config_to_dict(config: Any) -> dict:
+    """The effective configuration (or any record) as plain YAML-able data."""
     out = asdict(config)
     out.pop("source", None)
-    return _plain(out)
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    return value
+    return plain(out)

@@ -120,13 +120,14 @@ def _commented(line: str, doc: FieldDoc | None) -> list[str]:
 
 def _scalar(name: str, value: Any) -> str:
     """``name: value`` on one line (lists and mappings in flow style)."""
-    text = yaml.safe_dump({name: _plain(value)}, default_flow_style=True, sort_keys=False, width=1 << 20)
+    text = yaml.safe_dump({name: plain(value)}, default_flow_style=True, sort_keys=False, width=1 << 20)
     return text.strip()[1:-1]  # drop the braces of the one-key flow mapping
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
+    """YAML-able data: tuples become lists, in mappings and lists at any depth."""
     if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
+        return {k: plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return [plain(v) for v in value]
     return value
