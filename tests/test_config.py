@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import subprocess
 import sys
 import typing
@@ -55,7 +56,7 @@ def test_every_parameter_has_a_unit_and_a_meaning():
 def test_defaults_show_each_value_with_its_unit_and_meaning():
     lines = defaults_yaml().splitlines()
     assert any(line.startswith("  expect_range: 5.0  # [m] a node farther from the camera") for line in lines)
-    assert "  angular_step: 0.03490658503988659  # [rad] coarse grid step" in lines
+    assert "  angular_step_deg: 2.0  # [deg] coarse grid step" in lines
     assert "# Mission-wide knobs that are not a single behaviour's parameters." in lines
     assert lines[lines.index("# Mission-wide knobs that are not a single behaviour's parameters.") + 1] == "mission:"
 
@@ -152,3 +153,19 @@ def test_bomc_config_trees_lists_every_leaf_parameter_of_the_shipped_trees(capsy
         assert listed[path.name] == {where: config_to_dict(leaf.params) for where, leaf in leaves.items()}
     look = listed["monitor.yaml"]
     assert any(where.endswith("/ Look Around") and p["radius"] == 5.0 for where, p in look.items())
+
+
+def test_angles_are_given_in_degrees_and_read_in_radians(tmp_path):
+    mine = tmp_path / "mine.yaml"
+    mine.write_text("relocalization: {search_angle_deg: 30}\n")
+    config = load_config([mine])
+    assert config.relocalization.search_angle == math.radians(30.0)
+    assert config.relocalization.angular_step == 0.03490658503988659  # 2 deg, exactly the old radians default
+    # defaults that are not whole degrees are written so that they give the old radians exactly
+    motion, ros = config.sim.motion, config.ros
+    assert (motion.max_turn_rate, motion.turn_in_place_angle, motion.yaw_tolerance) == (1.0, 0.8, 0.15)
+    assert (config.sim.mapper.angular_update, config.sim.localization.lost_angle) == (0.25, 0.5)
+    assert (ros.initial_yaw_std, ros.max_yaw_std, ros.progress_angle) == (0.3, 0.15, 0.3)
+    mine.write_text("relocalization: {search_angle: 0.5}\n")
+    with pytest.raises(BomcError, match=r"mine\.yaml: relocalization\.search_angle: renamed: .* search_angle_deg"):
+        load_config([mine])

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from bomc_bt.params import Radians
+
 
 @dataclass
 class RosParams:
@@ -30,9 +32,11 @@ class RosParams:
     nomotion_update_service: str = "/request_nomotion_update"  # [text] AMCL update without motion; "" never asks
     nomotion_update_period: float = 1.0  # [s] ROS time between update requests while waiting
     initial_xy_std: float = 0.5  # [m] position std /initialpose is published with
-    initial_yaw_std: float = 0.3  # [rad] yaw std /initialpose is published with
+    initial_yaw_std_deg: float = 17.188733853924695  # [deg] yaw std /initialpose is published with (0.3 rad exactly)
+    initial_yaw_std = Radians()
     max_xy_std: float = 0.15  # [m] localized when the /amcl_pose x and y std are below this
-    max_yaw_std: float = 0.15  # [rad] ... and when the yaw std is below this
+    max_yaw_std_deg: float = 8.594366926962348  # [deg] ... and when the yaw std is below this (0.15 rad exactly)
+    max_yaw_std = Radians()
     relocalize_timeout: float = 30.0  # [s] ROS time before a relocalization is FAILED
     # -- navigation ------------------------------------------------------------------------
     move_base_action: str = "move_base"  # [text] the move_base action server
@@ -40,7 +44,8 @@ class RosParams:
     goal_ack_timeout: float = 5.0  # [s] ROS time for move_base to accept a goal
     progress_timeout: float = 60.0  # [s] ROS time without moving before a goal is BLOCKED (and cancelled)
     progress_distance: float = 0.1  # [m] translation that counts as progress
-    progress_angle: float = 0.3  # [rad] rotation that counts as progress
+    progress_angle_deg: float = 17.188733853924695  # [deg] rotation that counts as progress (0.3 rad exactly)
+    progress_angle = Radians()
     # -- camera ----------------------------------------------------------------------------
     rgb_topic: str = "/head_camera/rgb/image_raw"  # [text] colour images
     depth_topic: str = "/head_camera/depth_registered/image_raw"  # [text] depth images registered to colour
@@ -87,9 +92,9 @@ class RosParams:
             "frame_timeout",
             "publish_period",
             "initial_xy_std",
-            "initial_yaw_std",
+            "initial_yaw_std_deg",
             "max_xy_std",
-            "max_yaw_std",
+            "max_yaw_std_deg",
             "nomotion_update_period",
         )
         for name in positive:

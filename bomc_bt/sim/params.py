@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from bomc_bt.algorithm_params import PlannerParams
+from bomc_bt.params import Radians
 
 
 @dataclass
@@ -38,7 +39,9 @@ class MapperParams:
 
     resolution: float = 0.05  # [m] map cell size (the live map uses the world map's geometry; see Mapper)
     linear_update: float = 0.25  # [m] distance moved before the next scan is integrated (GMapping)
-    angular_update: float = 0.25  # [rad] angle turned before the next scan is integrated
+    # [deg] angle turned before the next scan is integrated (0.25 rad exactly)
+    angular_update_deg: float = 14.32394487827058
+    angular_update = Radians()
     hit_log_odds: float = 0.9  # [-] log-odds added to a cell a beam ends in
     miss_log_odds: float = -0.7  # [-] log-odds added to a cell a beam passes through
     clamp_log_odds: float = 5.0  # [-] a cell's log-odds stays within plus or minus this
@@ -67,24 +70,29 @@ class MotionParams:
     """The simulated base and its path-following controller (a stand-in for move_base)."""
 
     max_speed: float = 0.6  # [m/s] forward speed limit
-    max_turn_rate: float = 1.0  # [rad/s] turn rate limit
+    max_turn_rate_deg: float = 57.29577951308232  # [deg/s] turn rate limit (1.0 rad/s exactly)
+    max_turn_rate = Radians()
     progress_timeout: float = 15.0  # [s] sim time without progress along the plan before a goal is BLOCKED
     progress_step: float = 0.1  # [m] shortening of the remaining path that counts as progress
     replan_period: float = 2.0  # [s] between path checks (replan when the path is no longer clear)
     blocked_replan_period: float = 0.5  # [s] between replans while the robot cannot move
     lookahead: float = 0.6  # [m] distance along the path the controller steers to
-    turn_in_place_angle: float = 0.8  # [rad] heading error above which the robot turns on the spot
+    # [deg] heading error above which the robot turns on the spot (0.8 rad exactly)
+    turn_in_place_angle_deg: float = 45.83662361046586
+    turn_in_place_angle = Radians()
     heading_gain: float = 2.0  # [-] turn rate (rad/s) per rad of heading error
     # [m] radius of the base's footprint for collisions. Kept below the planner's lethal
     # radius by more than the planning grid's discretisation (0.1 m cells read clearance at
     # their centres), or plans that graze a pillar are refused step by step and the robot
     # rocks in place.
     body_radius: float = 0.24
-    yaw_tolerance: float = 0.15  # [rad] at the goal position the robot turns to the goal's yaw until this close
+    # [deg] at the goal position the robot turns to the goal's yaw until this close (0.15 rad exactly)
+    yaw_tolerance_deg: float = 8.594366926962348
+    yaw_tolerance = Radians()
 
     def __post_init__(self) -> None:
-        if self.max_speed <= 0 or self.max_turn_rate <= 0 or self.progress_timeout <= 0:
-            raise ValueError("max_speed, max_turn_rate and progress_timeout must be > 0")
+        if self.max_speed <= 0 or self.max_turn_rate_deg <= 0 or self.progress_timeout <= 0:
+            raise ValueError("max_speed, max_turn_rate_deg and progress_timeout must be > 0")
         if self.replan_period <= 0 or self.lookahead <= 0 or self.body_radius <= 0:
             raise ValueError("replan_period, lookahead and body_radius must be > 0")
 
@@ -120,7 +128,8 @@ class LocalizationParams:
     global_duration: float = 6.0  # [s] sim time a global relocalization takes
     correction_time: float = 5.0  # [s] time constant of the estimate's error decaying (AMCL)
     lost_distance: float = 1.0  # [m] an estimate this wrong stays wrong (AMCL does not recover)
-    lost_angle: float = 0.5  # [rad] an estimate's yaw this wrong stays wrong
+    lost_angle_deg: float = 28.64788975654116  # [deg] an estimate's yaw this wrong stays wrong (0.5 rad exactly)
+    lost_angle = Radians()
 
 
 @dataclass
