@@ -80,6 +80,7 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("config", help="print the effective configuration")
     c.add_argument("--config", action="append", default=[], metavar="FILE")
     c.add_argument("--defaults", action="store_true", help="the code's defaults (config/defaults.yaml)")
+    c.add_argument("--trees", action="store_true", help="the leaf parameters written in the shipped trees")
 
     # Parsed by the bridge itself (main() hands it the rest of the line); listed for --help.
     sub.add_parser("sim-ros", add_help=False,
@@ -118,19 +119,28 @@ def _one_line(exc: Exception) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+def _config(args) -> int:
+    """``bomc config``: the effective configuration, the code's defaults, or the trees' parameters."""
+    from bomc_bt.config import EFFECTIVE_HEADER, defaults_yaml, load_config, resource_dir
+    from bomc_bt.config_docs import documented_yaml
+
+    if args.trees:
+        from bomc_bt.config_trees import trees_yaml
+
+        print(trees_yaml(resource_dir("trees")), end="")
+    elif args.defaults:
+        print(defaults_yaml(), end="")
+    else:
+        config = load_config(args.config)
+        print(EFFECTIVE_HEADER.format(files=", ".join(config.source)) + documented_yaml(config), end="")
+    return 0
+
+
 def _dispatch(args) -> int:
     from bomc_bt import run
 
     if args.command == "config":
-        import yaml
-
-        from bomc_bt.config import config_to_dict, defaults_yaml
-
-        if args.defaults:
-            print(defaults_yaml(), end="")
-            return 0
-        print(yaml.safe_dump(config_to_dict(run.build_config(args.config)), sort_keys=False), end="")
-        return 0
+        return _config(args)
     if args.command in ("build", "monitor"):
         return _mission(args)
     if args.command == "view":

@@ -9,45 +9,54 @@ file is validated on its own before merging, so an error names the file that has
 from __future__ import annotations
 
 import sys
-from dataclasses import asdict, dataclass, field, fields, is_dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-import yaml
-
+from bomc_bt.algorithm_params import (
+    ExplorationParams,
+    ProjectionParams,
+    RelocalizationParams,
+    TraversalParams,
+)
+from bomc_bt.config_docs import documented_yaml, plain
 from bomc_bt.errors import BomcError
-from bomc_bt.exploration.dwfe import ExplorationParams
 from bomc_bt.graph import AssociationParams
-from bomc_bt.localization import RelocalizationParams
 from bomc_bt.params import from_mapping, merge
-from bomc_bt.perception.projection import ProjectionParams
 from bomc_bt.ros.params import RosParams
-from bomc_bt.sim.camera import CameraParams
-from bomc_bt.sim.detector import SimDetectorParams
-from bomc_bt.sim.robot import SimParams
-from bomc_bt.traversal import TraversalParams
+from bomc_bt.sim.params import CameraParams, SimDetectorParams, SimParams
+from bomc_bt.yaml_io import read_yaml
 
 
 @dataclass
 class PerceptionParams:
     """Which detector and segmenter run, and what they look for."""
 
-    backend: Literal["sim", "onnx"] = "sim"
-    # Prompts (open vocabulary). Empty in the simulator: every category the world has.
+    backend: Literal["sim", "onnx"] = "sim"  # [choice] "sim": the simulator's detector; "onnx": the ONNX models
+    # [list] prompts (open vocabulary); empty in the simulator: every category the world has
     categories: list[str] = field(default_factory=list)
-    onnx: dict[str, Any] = field(default_factory=dict)  # validated by the ONNX backend
+    onnx: dict[str, Any] = field(default_factory=dict)  # [text] the ONNX backend's settings (it validates them)
 
 
 @dataclass
 class MissionParams:
     """Mission-wide knobs that are not a single behaviour's parameters."""
 
-    trajectory_period: float = 1.0  # s between recorded exploration poses (the paper: 1 Hz)
-    explored_area_period: float = 5.0  # s between explored-area updates of the progress line
+    trajectory_period: float = 1.0  # [s] between recorded exploration poses (the paper: 1 Hz)
+    explored_area_period: float = 5.0  # [s] between explored-area updates of the progress line
+    # [s] robot time since this pass last confirmed a node after which it is stale: worth
+    # another look (Look Around) and a refresh stop (Refresh Stale); 0: never stale
+    stale_after: float = 600.0
+
+    def __post_init__(self) -> None:
+        if self.stale_after < 0:
+            raise ValueError("stale_after must be >= 0 (0: never stale)")
 
 
 @dataclass
 class Config:
+    """Every module's parameters: one section per record."""
+
     mission: MissionParams = field(default_factory=MissionParams)
     sim: SimParams = field(default_factory=SimParams)
     exploration: ExplorationParams = field(default_factory=ExplorationParams)
@@ -59,7 +68,13 @@ class Config:
     association: AssociationParams = field(default_factory=AssociationParams)
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     ros: RosParams = field(default_factory=RosParams)
-    source: list[str] = field(default_factory=list)  # the files merged, in order
+    source: list[str] = field(default_factory=list, init=False)  # the files merged, in order
+
+
+REMOVED_KEYS = {
+    ("sim", "scene", "lidar_height"): "the scan plane's height is sim.lidar.height (one value for laser and scene)",
+}
+"""Keys that older files may still set, with what replaced them: an error, not a silent no-op."""
 
 
 def resource_dir(name: str) -> Path:
@@ -73,24 +88,6 @@ def resource_dir(name: str) -> Path:
     raise BomcError(f"cannot find the {name}/ folder (looked in {checkout} and {installed})")
 
 
-def read_yaml(path: Path) -> Any:
-    """Parse a YAML file; syntax errors become one line with the position."""
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise BomcError("file not found", path) from None
-    except OSError as exc:
-        raise BomcError(f"cannot read ({exc.strerror})", path) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else "syntax"
-        raise BomcError(f"invalid YAML ({exc.problem})", path, where) from None
-    except yaml.YAMLError as exc:
-        raise BomcError(f"invalid YAML ({exc})", path) from None
-
-
 def load_config(extra: list[str | Path] = (), robot: str | None = "sim") -> Config:
     """Defaults, then ``config/<robot>.yaml`` if present, then each ``extra`` file."""
     config_dir = resource_dir("config")
@@ -100,14 +97,24 @@ def load_config(extra: list[str | Path] = (), robot: str | None = "sim") -> Conf
     paths.extend(Path(p) for p in extra)
     merged: dict = {}
     for path in paths:
-        data = read_yaml(path) or {}
+        data = read_yaml(path, "config file") or {}
         if not isinstance(data, dict):
             raise BomcError("expected a mapping of config sections", path)
+        _refuse_removed_keys(data, path)
         from_mapping(Config, data, path)  # validate this file alone: errors name it
         merged = merge(merged, data)
     config = from_mapping(Config, merged, paths[-1])
     config.source = [str(p) for p in paths]
     return config
+
+
+def _refuse_removed_keys(data: dict, path: Path) -> None:
+    for keys, replacement in REMOVED_KEYS.items():
+        section = data
+        for key in keys[:-1]:
+            section = section.get(key) if isinstance(section, dict) else None
+        if isinstance(section, dict) and keys[-1] in section:
+            raise BomcError(f"removed: {replacement}", path, ".".join(keys))
 
 
 DEFAULTS_HEADER = """\
@@ -117,24 +124,18 @@ DEFAULTS_HEADER = """\
 # checks that it matches the code.
 """
 
+EFFECTIVE_HEADER = """\
+# bomc-bt parameters in effect: {files} (later files win).
+"""
+
 
 def defaults_yaml() -> str:
-    """``config/defaults.yaml`` as the code defines it."""
-    return DEFAULTS_HEADER + yaml.safe_dump(config_to_dict(Config()), sort_keys=False)
+    """``config/defaults.yaml`` as the code defines it, every field with its unit and meaning."""
+    return DEFAULTS_HEADER + documented_yaml(Config())
 
 
-def config_to_dict(config: Config) -> dict:
-    """The effective configuration as plain YAML-able data (``bomc config``)."""
+def config_to_dict(config: Any) -> dict:
+    """The effective configuration (or any record) as plain YAML-able data."""
     out = asdict(config)
     out.pop("source", None)
-    return _plain(out)
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if is_dataclass(value):
-        return {f.name: _plain(getattr(value, f.name)) for f in fields(value)}
-    return value
+    return plain(out)

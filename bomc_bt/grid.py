@@ -14,10 +14,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import yaml
 
 from bomc_bt.atomic import atomic_write
 from bomc_bt.errors import BomcError
+from bomc_bt.yaml_io import read_yaml
 
 UNKNOWN = -1
 FREE = 0
@@ -112,12 +112,7 @@ def inflate_mask(mask: np.ndarray, radius_cells: float) -> np.ndarray:
 def load_map(yaml_path: str | Path) -> OccupancyGrid:
     """Read a map_server map (YAML + image) with its negate, thresholds and mode."""
     yaml_path = Path(yaml_path)
-    try:
-        meta = yaml.safe_load(yaml_path.read_text())
-    except FileNotFoundError:
-        raise BomcError("map file not found", yaml_path) from None
-    except (OSError, yaml.YAMLError) as exc:
-        raise BomcError(f"cannot read map YAML ({_first_line(exc)})", yaml_path) from None
+    meta = read_yaml(yaml_path, "map file")
     if not isinstance(meta, dict):
         raise BomcError("expected a mapping of map_server keys", yaml_path)
     image = _require(meta, "image", str, yaml_path)
@@ -198,7 +193,3 @@ def _require(meta: dict, key: str, types, path: Path):
     if not isinstance(value, types) or isinstance(value, bool):
         raise BomcError(f"has the wrong type ({type(value).__name__})", path, key)
     return value
-
-
-def _first_line(exc: Exception) -> str:
-    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

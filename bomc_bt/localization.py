@@ -27,62 +27,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bomc_bt.algorithm_params import RelocalizationParams
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import LaserScan
 from bomc_bt.scan_likelihood import Beams, LikelihoodField, to_world, valid_beams
-
-
-@dataclass
-class RelocalizationParams:
-    """Search windows, resolutions and the confidence test of :class:`ScanMatcher`."""
-
-    search_radius: float = 1.2  # m around the hint (covers a hint that is up to 1 m off)
-    search_angle: float = 0.6  # rad around the hint yaw (covers up to 30 deg of error)
-    linear_step: float = 0.1  # m, coarse grid (rounded to whole map cells)
-    angular_step: float = math.radians(2.0)  # rad, coarse grid
-    fine_linear_step: float = 0.02  # m, first refinement
-    fine_angular_step: float = math.radians(0.5)
-    final_linear_step: float = 0.01  # m, last refinement
-    final_angular_step: float = math.radians(0.2)
-    sigma: float = 0.1  # m, likelihood field std for refinement and the reported score
-    coarse_sigma: float = 0.25  # m, wider field for the coarse grid so its steps cannot miss the peak
-    min_score: float = 0.6  # mean beam likelihood needed to be confident
-    min_margin: float = 0.05  # best must beat the far runner-up by this fraction of its score
-    see_through_tolerance: float = 0.1  # m: a beam may pass this close to a wall before its end
-    wall_probe: tuple[float, ...] = (0.12, 0.2, 0.3)  # m before each end checked during refinement
-    ambiguity_distance: float = 1.0  # m: a runner-up farther than this is a different pose
-    ambiguity_angle: float = math.radians(45.0)  # rad: ... or one facing this much elsewhere
-    max_beams: int = 180  # beams used for the local coarse grid and refinement (evenly subsampled)
-    final_beams: int = 720  # beams used by the last refinement, where few poses are left to score
-    min_beams: int = 20  # fewer valid beams than this can never be confident
-    max_recentre: int = 8  # times a refinement grid may move to follow a peak off its edge
-    rivals: int = 3  # distinct coarse peaks far from the winner refined to find the runner-up
-    local_candidates: int = 4  # distinct coarse peaks refined in a local search
-    global_linear_step: float = 0.3  # m, coarse grid of candidate positions over the free space
-    global_angular_step: float = math.radians(3.0)
-    global_sigma: float = 0.3  # m, field for the global coarse grid
-    global_beams: int = 60  # beams used by the global coarse grid
-    global_clearance: float = 0.2  # m: candidate positions keep this distance from obstacles
-    global_candidates: int = 16  # distinct coarse peaks refined in a global search
-
-    def __post_init__(self) -> None:
-        positive = ("search_radius", "linear_step", "angular_step", "fine_linear_step", "fine_angular_step",
-                    "final_linear_step", "final_angular_step", "sigma", "coarse_sigma", "global_linear_step",
-                    "global_angular_step", "global_sigma", "ambiguity_distance", "ambiguity_angle")
-        for name in positive:
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be positive")
-        if min(self.search_angle, self.global_clearance, self.see_through_tolerance, self.max_recentre,
-               *self.wall_probe) < 0:
-            raise ValueError("search_angle, global_clearance, see_through_tolerance, max_recentre and "
-                             "wall_probe must not be negative")
-        if not 0.0 <= self.min_margin < 1.0:
-            raise ValueError("min_margin must be in [0, 1)")
-        for name in ("max_beams", "final_beams", "global_beams", "local_candidates",
-                     "global_candidates", "rivals", "min_beams"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be at least 1")
 
 
 @dataclass

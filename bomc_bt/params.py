@@ -29,6 +29,8 @@ def from_mapping(cls: type[T], data: Any, file: str | Path | None = None, where:
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     unknown = sorted(set(map(str, data)) - set(fields))
     if unknown:
+        if f"{unknown[0]}_deg" in fields:  # an angle that used to be given in radians
+            raise BomcError(f"renamed: give it in degrees as {unknown[0]}_deg", file, _join(where, unknown[0]))
         known = ", ".join(sorted(fields))
         raise BomcError(f"unknown key (expected one of: {known})", file, _join(where, unknown[0]))
     values = {}
@@ -44,6 +46,23 @@ def from_mapping(cls: type[T], data: Any, file: str | Path | None = None, where:
         return cls(**values)
     except (ValueError, TypeError) as exc:  # __post_init__ range checks
         raise BomcError(str(exc), file, where or None) from None
+
+
+class Radians:
+    """A read-only radians view of the degrees field named like it plus ``_deg``.
+
+    Users give angles in degrees (``search_angle_deg: 34.0``); the code reads
+    ``params.search_angle`` in radians, converted here, in one place::
+
+        search_angle_deg: float = 34.0  # [deg] ...
+        search_angle = Radians()
+    """
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.source = f"{name}_deg"
+
+    def __get__(self, record: Any, owner: type | None = None) -> Any:
+        return self if record is None else math.radians(getattr(record, self.source))
 
 
 def merge(base: dict, override: dict) -> dict:

@@ -16,11 +16,11 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+from bomc_bt.algorithm_params import PlannerParams
 from bomc_bt.costmap import clearance_fields
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.path_smoothing import smooth_cells
@@ -30,28 +30,6 @@ from bomc_bt.polyline import dedupe_waypoints, path_clear_of, path_length
 __all__ = ["GridPlanner", "PlannerParams", "path_clear_of", "path_length"]
 
 _SQRT2 = math.sqrt(2.0)
-
-
-@dataclass
-class PlannerParams:
-    """Costmap and search settings (names follow the ROS navigation stack)."""
-
-    robot_radius: float = 0.3  # m; closer than this to an obstacle is lethal
-    inflation_radius: float = 0.7  # m; the clearance cost decays to zero here
-    cost_weight: float = 3.0  # extra cost per metre next to lethal space (quadratic decay)
-    resolution: float = 0.1  # m; planning grid (never finer than the map)
-    allow_unknown: bool = False  # plan through unknown cells (navfn's allow_unknown)
-    goal_tolerance: float = 0.3  # m; a lethal goal may move this far to a traversable cell
-    escape_radius: float = 1.0  # m; how far to look for a traversable cell from a lethal start
-    heuristic_weight: float = 1.0  # > 1: weighted A* (fewer expansions, less clearance-optimal)
-
-    def __post_init__(self) -> None:
-        if self.robot_radius < 0 or self.inflation_radius < self.robot_radius:
-            raise ValueError("need 0 <= robot_radius <= inflation_radius")
-        if self.heuristic_weight < 1.0:
-            raise ValueError("heuristic_weight must be >= 1")
-        if self.resolution <= 0 or self.goal_tolerance < 0 or self.cost_weight < 0:
-            raise ValueError("resolution must be > 0; goal_tolerance, cost_weight >= 0")
 
 
 class GridPlanner:

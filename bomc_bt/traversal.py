@@ -24,27 +24,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from bomc_bt.algorithm_params import TraversalParams
 from bomc_bt.errors import BomcError, read_input_text
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 
 GridDistance = Callable[[tuple, tuple], float]
-
-
-@dataclass
-class TraversalParams:
-    """How waypoints are sampled and ordered."""
-
-    spacing: float = 2.0  # m, minimum distance between any two waypoints
-    two_opt: bool = True  # improve the greedy order by 2-opt
-    max_two_opt_passes: int = 20
-    face_travel_direction: bool = True  # waypoint yaw: towards the next waypoint (else the recorded yaw)
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.spacing) and self.spacing > 0):
-            raise ValueError("spacing must be a positive number")
-        if self.max_two_opt_passes < 0:
-            raise ValueError("max_two_opt_passes must not be negative")
 
 
 @dataclass

@@ -11,9 +11,9 @@ import pytest
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import FREE, OCCUPIED, OccupancyGrid
 from bomc_bt.robot import RobotPort, Status
-from bomc_bt.sim.faults import FaultParams
 from bomc_bt.sim.lidar import Lidar, LidarParams, naive_trace, sphere_trace
 from bomc_bt.sim.mapper import Mapper, ObstacleLayer, ObstacleLayerParams
+from bomc_bt.sim.params import FaultParams
 from bomc_bt.sim.robot import SimParams, SimRobot
 from bomc_bt.sim.scene import Scene
 from bomc_bt.world import Change, DuringChange, Obstacle, World, WorldObject, load_world

@@ -36,69 +36,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+from bomc_bt.algorithm_params import ExplorationParams
 from bomc_bt.exploration.frontiers import Frontier
-
-
-@dataclass
-class ExplorationParams:
-    """Tunables of the exploration step (filled from ``config/*.yaml`` via ``params.from_mapping``)."""
-
-    explorer: Literal["dwfe", "baseline"] = "dwfe"
-    # r_l: a few metres is one room or one corridor segment for a Fetch-class base: about
-    # what its laser clears well from one stop (indoor returns are dense up to ~5 m), and
-    # small enough that the window does not reach into the next room through a wall.
-    local_radius: float = 4.0
-    # r_g: effectively the whole building; the global window is the fallback.
-    global_radius: float = 1000.0
-    # T_l: stay local while at least two frontiers remain nearby; a single leftover local
-    # frontier is often a sliver (behind a chair, a laser shadow) not worth finishing first.
-    local_threshold: int = 2
-    # T_g: stop when no frontier is left anywhere (the paper's termination count).
-    global_threshold: int = 1
-    # alpha, beta: 1 m of extra travel is worth 2 m of extra frontier length, so a 1 m
-    # doorway 1 m further away still beats a 0.5 m sliver close by, but the robot does not
-    # cross the window for a long frontier when a decent one is next to it.
-    alpha: float = 1.0
-    beta: float = 0.5
-    potential_scale: float = 3.0  # explore_lite defaults
-    gain_scale: float = 1.0
-    min_frontier_size: float = 0.5  # metres (explore_lite's min_frontier_size)
-    max_time: float = 3600.0  # s of robot time
-    blacklist_radius: float = 0.5  # m around a failed goal
-    progress_timeout: float = 30.0  # s of robot time without progress -> goal blacklisted
-
-    def __post_init__(self) -> None:
-        if self.explorer not in ("dwfe", "baseline"):
-            raise ValueError(f"explorer: must be 'dwfe' or 'baseline', got {self.explorer!r}")
-        _positive(self, "local_radius", "global_radius", "max_time", "progress_timeout")
-        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale",
-                      "min_frontier_size", "blacklist_radius")
-        if self.global_radius < self.local_radius:
-            raise ValueError("global_radius: must be at least local_radius "
-                             f"({self.global_radius} < {self.local_radius})")
-        for name in ("local_threshold", "global_threshold"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or value < 1:
-                raise ValueError(f"{name}: must be a whole number >= 1, got {value!r}")
-
-    def min_size_cells(self, resolution: float) -> int:
-        """``min_frontier_size`` as a cell count for :func:`find_frontiers` (explore_lite keeps
-        frontiers with ``size * resolution >= min_frontier_size``)."""
-        return max(1, math.ceil(self.min_frontier_size / resolution - 1e-9))
-
-
-def _positive(params: ExplorationParams, *names: str) -> None:
-    for name in names:
-        value = getattr(params, name)
-        if not (value > 0) or math.isnan(value) or (math.isinf(value) and name != "global_radius"):
-            raise ValueError(f"{name}: must be a positive number, got {value!r}")
-
-
-def _non_negative(params: ExplorationParams, *names: str) -> None:
-    for name in names:
-        value = getattr(params, name)
-        if not (value >= 0) or not math.isfinite(value):
-            raise ValueError(f"{name}: must be a finite number >= 0, got {value!r}")
 
 
 @dataclass

@@ -15,69 +15,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
 
 import cv2
 import numpy as np
 
+from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import Observation
 from bomc_bt.perception.frames import Detection
 from bomc_bt.robot import RGBDFrame
 
-_REFERENCE_WIDTH = 640  # stride and min_points are given for a 640 x 480 image
-_REFERENCE_AREA = 640 * 480
 _BIN = 0.05  # m, range histogram bin of the robust centroid
 _MIN_HALF_WIDTH = 0.1  # m, the robust centroid never cuts closer than this to the mode
 _MAD_K = 3.0 * 1.4826  # three standard deviations, from the median absolute deviation
-
-
-@dataclass
-class ProjectionParams:
-    """Back-projection and FoV settings (stride and min_points at 640 x 480; see scaled())."""
-
-    min_points: int = 30  # fewer valid sampled points than this: the detection is skipped
-    stride: int = 2  # sample every stride-th pixel in both directions
-    max_depth: float = 6.0  # m: depth noise grows with depth^2, so farther pixels are not used
-    fov_columns: int = 64  # image columns sampled for the FoV polygon
-    # m: a node farther from the camera is not expected to be detected (robust mode): far
-    # objects are small in the image and often missed, so their absence proves little.
-    expect_range: float = 5.0
-    # How an object's position is taken from its points: "mean" is the paper's (the mean of
-    # the masked point cloud); "footprint" keeps the mean height but takes x, y from the
-    # middle of the points' spread on the floor (1st to 99th percentile). The mean of the
-    # *visible* surface leans towards the viewer by up to half the object's depth, so a
-    # table seen from two sides gives two centroids a metre apart; the footprint's middle
-    # stays put as long as the top or two faces are in view.
-    centre: Literal["mean", "footprint"] = "footprint"
-    # m: only objects this near give a floor box (Observation.box) that association trusts
-    # for footprints; depth noise grows with range^2, and a box from a far view is inflated
-    # along the ray by it (at 7 m a typical sensor's noise is ~0.25 m: a chair looks 1 m deep).
-    box_range: float = 4.0
-
-    def __post_init__(self) -> None:
-        if self.min_points < 1:
-            raise ValueError("min_points must be >= 1")
-        if self.stride < 1:
-            raise ValueError("stride must be >= 1")
-        if not self.max_depth > 0.0:
-            raise ValueError("max_depth must be positive")
-        if self.box_range < 0.0:
-            raise ValueError("box_range must be >= 0 (0: no boxes)")
-        if self.fov_columns < 2:
-            raise ValueError("fov_columns must be >= 2")
-
-    def scaled(self, shape: tuple[int, int]) -> tuple[int, int]:
-        """(stride, min_points) for an image of ``shape`` (H, W).
-
-        Both are given for 640 x 480 so one config serves a full-resolution camera and a
-        simulator rendering at a quarter of it: a smaller image gets a finer stride and a
-        smaller point minimum, so the same objects (same apparent size) pass or fail.
-        """
-        h, w = shape
-        stride = max(1, round(self.stride * w / _REFERENCE_WIDTH))
-        factor = (h * w / _REFERENCE_AREA) * (self.stride / stride) ** 2
-        return stride, max(3, round(self.min_points * factor))
 
 
 @dataclass

@@ -41,6 +41,7 @@ import numpy as np
 from bomc_bt.geometry import Pose2D, rotation_y, se3
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.sim.frame import SimFrame
+from bomc_bt.sim.params import CameraParams
 from bomc_bt.sim.raycast import NONE, RayTable, WallField, draw_box, draw_cylinder, scene_solids
 
 # Optical frame (z forward, x right, y down) expressed in base_link (x forward, y left, z up).
@@ -48,41 +49,6 @@ _R_BASE_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
 
 
 @dataclass
-class CameraParams:
-    """The simulated head camera (defaults: Fetch's Primesense head camera)."""
-
-    width: int = 640
-    height: int = 480
-    scale: float = 1.0  # render at width*scale x height*scale; K scales accordingly
-    hfov_deg: float = 60.0
-    mount_height: float = 1.1  # m, optical centre above the floor
-    mount_x: float = 0.1  # m, ahead of base_link
-    tilt_deg: float = 15.0  # pitch down
-    depth_min: float = 0.3  # m
-    depth_max: float = 8.0  # m
-    depth_noise: float = 0.005  # m standard deviation at 1 m, grows with depth^2
-    rate: float = 2.0  # frames per second of simulated time
-
-    def __post_init__(self) -> None:
-        if self.width <= 0 or self.height <= 0:
-            raise ValueError("width and height must be positive")
-        if not 0.0 < self.scale <= 4.0:
-            raise ValueError("scale must be in (0, 4]")
-        if not 1.0 <= self.hfov_deg <= 170.0:
-            raise ValueError("hfov_deg must be in [1, 170]")
-        if not 0.0 <= self.depth_min < self.depth_max:
-            raise ValueError("need 0 <= depth_min < depth_max")
-        if self.depth_noise < 0.0:
-            raise ValueError("depth_noise must be >= 0")
-        if self.rate <= 0.0:
-            raise ValueError("rate must be positive")
-        if not -89.0 <= self.tilt_deg <= 89.0:
-            raise ValueError("tilt_deg must be in [-89, 89]")
-
-    @property
-    def image_size(self) -> tuple[int, int]:
-        """(width, height) of the rendered images."""
-        return max(1, round(self.width * self.scale)), max(1, round(self.height * self.scale))
 
 
 class SimCamera:

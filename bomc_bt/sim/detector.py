@@ -33,8 +33,7 @@ depends on the seed and its stamp only, not on how many frames came before.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -43,42 +42,9 @@ from bomc_bt.errors import BomcError
 from bomc_bt.perception.frames import Detection
 from bomc_bt.robot import RGBDFrame
 from bomc_bt.sim.frame import SimFrame
+from bomc_bt.sim.params import SimDetectorParams
 
 _REFERENCE_AREA = 640 * 480  # min_pixels is given at this resolution
-
-
-@dataclass
-class SimDetectorParams:
-    """Noise model of the simulated detector and segmenter (see the module docstring)."""
-
-    preset: Literal["perfect", "realistic"] = "realistic"
-    score_threshold: float = 0.75  # the paper's confidence threshold
-    min_pixels: int = 50  # at 640 x 480; scaled with the image area
-    miss_base: float = 0.05
-    miss_per_metre: float = 0.04
-    miss_occlusion: float = 0.6
-    score_mean: float = 0.88
-    score_std: float = 0.05
-    score_drop: float = 0.15  # mean score lost per unit of miss probability
-    false_positive_rate: float = 0.01  # per frame
-    confusion_rate: float = 0.01  # per detection
-    mask_bleed: float = 0.1  # fraction of the mask area added around it
-    box_jitter: float = 0.03  # std of each box side, as a fraction of the box size
-    dropouts: list[tuple[float, float]] = field(default_factory=list)  # (start, end) sim s
-
-    def __post_init__(self) -> None:
-        for name in ("miss_base", "miss_per_metre", "miss_occlusion", "score_std", "score_drop",
-                     "mask_bleed", "box_jitter"):
-            if getattr(self, name) < 0.0:
-                raise ValueError(f"{name} must be >= 0")
-        for name in ("false_positive_rate", "confusion_rate", "score_threshold"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise ValueError(f"{name} must be in [0, 1]")
-        if self.min_pixels < 1:
-            raise ValueError("min_pixels must be >= 1")
-        for start, end in self.dropouts:
-            if end < start:
-                raise ValueError(f"dropout ({start}, {end}) ends before it starts")
 
 
 @dataclass

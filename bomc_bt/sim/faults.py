@@ -9,27 +9,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from bomc_bt.sim.scene import Scene
 
 PERSON_RADIUS = 0.25  # m
-
-
-@dataclass
-class FaultParams:
-    nav_failure_probability: float = 0.0  # per goal: the goal aborts (FAILED) at a random moment
-    people: int = 0  # people walking back and forth in open space
-    person_speed: float = 0.5  # m/s
-    localization_noise: float = 0.0  # m (std) on the reported pose once localized; yaw std = half, rad
-
-    def __post_init__(self) -> None:
-        if not 0.0 <= self.nav_failure_probability <= 1.0:
-            raise ValueError("nav_failure_probability must be in [0, 1]")
-        if self.people < 0 or self.person_speed < 0 or self.localization_noise < 0:
-            raise ValueError("people, person_speed and localization_noise must be >= 0")
 
 
 class People:

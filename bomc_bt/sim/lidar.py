@@ -11,30 +11,13 @@ cell. People are exact circles, intersected analytically.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import LaserScan
-
-
-@dataclass
-class LidarParams:
-    fov_deg: float = 220.0
-    beams: int = 662  # the Fetch's ~0.33 deg spacing
-    range_max: float = 25.0
-    range_min: float = 0.05
-    noise_std: float = 0.01  # m, Gaussian on each range
-    height: float = 0.25  # m above the floor (what the scan plane cuts)
-    rate: float = 10.0  # Hz
-    max_iterations: int = 200  # sphere-tracing cap (a beam still flying then reads range_max)
-
-    def __post_init__(self) -> None:
-        if (self.beams < 2 or not 0 < self.fov_deg <= 360 or self.range_max <= self.range_min
-                or self.rate <= 0):
-            raise ValueError("lidar needs beams >= 2, 0 < fov_deg <= 360, range_max > range_min, rate > 0")
+from bomc_bt.sim.params import LidarParams
 
 
 class Lidar:

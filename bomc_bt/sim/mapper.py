@@ -25,25 +25,7 @@ import numpy as np
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from bomc_bt.robot import LaserScan
-
-
-@dataclass
-class MapperParams:
-    resolution: float = 0.05  # m (the live map uses the world map's geometry; see Mapper)
-    linear_update: float = 0.25  # m moved before the next scan is integrated (GMapping)
-    angular_update: float = 0.25  # rad turned before the next scan is integrated
-    hit_log_odds: float = 0.9
-    miss_log_odds: float = -0.7
-    clamp_log_odds: float = 5.0
-    occupied_threshold: float = 0.6  # log-odds above: occupied (100)
-    free_threshold: float = -0.6  # log-odds below: free (0)
-    max_free_range: float = 25.0  # m; beams with no return clear up to this range
-
-    def __post_init__(self) -> None:
-        if self.resolution <= 0 or self.hit_log_odds <= 0 or self.miss_log_odds >= 0:
-            raise ValueError("need resolution > 0, hit_log_odds > 0, miss_log_odds < 0")
-        if not self.free_threshold < self.occupied_threshold:
-            raise ValueError("free_threshold must be below occupied_threshold")
+from bomc_bt.sim.params import MapperParams, ObstacleLayerParams
 
 
 @dataclass
@@ -150,13 +132,6 @@ class Mapper:
             data[self.log_odds > p.occupied_threshold] = OCCUPIED
             self._map = OccupancyGrid(data, self.geometry.resolution, tuple(self.geometry.origin))
         return self._map
-
-
-@dataclass
-class ObstacleLayerParams:
-    obstacle_range: float = 4.0  # m; returns nearer than this mark obstacles
-    raytrace_range: float = 5.0  # m; free space up to this range clears obstacles
-    update_period: float = 0.2  # s of sim time between updates (a 5 Hz costmap)
 
 
 class ObstacleLayer:

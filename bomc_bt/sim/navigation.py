@@ -21,37 +21,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.planner import GridPlanner, path_length
 from bomc_bt.robot import RequestHandle, Status
-
-
-@dataclass
-class MotionParams:
-    max_speed: float = 0.6  # m/s
-    max_turn_rate: float = 1.0  # rad/s
-    progress_timeout: float = 15.0  # s of sim time without progress along the plan -> BLOCKED
-    progress_step: float = 0.1  # m of remaining path that counts as progress
-    replan_period: float = 2.0  # s between path checks (replan when the path is no longer clear)
-    blocked_replan_period: float = 0.5  # s between replans while the robot cannot move
-    lookahead: float = 0.6  # m along the path the controller steers to
-    turn_in_place_angle: float = 0.8  # rad of heading error above which the robot turns on the spot
-    heading_gain: float = 2.0  # turn rate per rad of heading error
-    # m; the base's footprint for collisions. Kept below the planner's lethal radius by more
-    # than the planning grid's discretisation (0.1 m cells read clearance at their centres),
-    # or plans that graze a pillar are refused step by step and the robot rocks in place.
-    body_radius: float = 0.24
-    yaw_tolerance: float = 0.15  # rad; at the goal position the robot turns to the goal's yaw, as move_base does
-
-    def __post_init__(self) -> None:
-        if self.max_speed <= 0 or self.max_turn_rate <= 0 or self.progress_timeout <= 0:
-            raise ValueError("max_speed, max_turn_rate and progress_timeout must be > 0")
-        if self.replan_period <= 0 or self.lookahead <= 0 or self.body_radius <= 0:
-            raise ValueError("replan_period, lookahead and body_radius must be > 0")
+from bomc_bt.sim.params import MotionParams
 
 
 class NavHandle(RequestHandle):

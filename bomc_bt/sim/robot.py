@@ -24,49 +24,22 @@ so results do not depend on who asked. Everything random is seeded from ``seed``
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.planner import PlannerParams
 from bomc_bt.robot import LaserScan, RequestHandle, RGBDFrame, Status
 from bomc_bt.sim.clock import SimClock
-from bomc_bt.sim.faults import PERSON_RADIUS, FaultParams, People
-from bomc_bt.sim.lidar import Lidar, LidarParams
-from bomc_bt.sim.mapper import Mapper, MapperParams, ObstacleLayer, ObstacleLayerParams
-from bomc_bt.sim.navigation import MotionParams, NavHandle, Navigator
+from bomc_bt.sim.faults import PERSON_RADIUS, People
+from bomc_bt.sim.lidar import Lidar
+from bomc_bt.sim.mapper import Mapper, ObstacleLayer
+from bomc_bt.sim.navigation import NavHandle, Navigator
+from bomc_bt.sim.params import SimParams
 from bomc_bt.sim.planning import SimPlanners
-from bomc_bt.sim.scene import Scene, SceneParams
+from bomc_bt.sim.scene import Scene
 from bomc_bt.world import World, WorldObject, apply_change
-
-
-@dataclass
-class LocalizationParams:
-    local_duration: float = 2.0  # s of sim time a relocalization from a hint takes
-    global_duration: float = 6.0  # s of sim time a global relocalization takes
-    correction_time: float = 5.0  # s; time constant of the estimate's error decaying (AMCL)
-    lost_distance: float = 1.0  # m; an estimate this wrong stays wrong (AMCL does not recover)
-    lost_angle: float = 0.5  # rad; likewise for yaw
-
-
-@dataclass
-class SimParams:
-    dt: float = 0.1
-    lidar: LidarParams = field(default_factory=LidarParams)
-    mapper: MapperParams = field(default_factory=MapperParams)
-    motion: MotionParams = field(default_factory=MotionParams)
-    planner: PlannerParams = field(default_factory=PlannerParams)
-    faults: FaultParams = field(default_factory=FaultParams)
-    scene: SceneParams = field(default_factory=SceneParams)
-    obstacles: ObstacleLayerParams = field(default_factory=ObstacleLayerParams)
-    localization: LocalizationParams = field(default_factory=LocalizationParams)
-
-    def __post_init__(self) -> None:
-        if not self.dt > 0:
-            raise ValueError("dt must be > 0")
 
 
 class RelocHandle(RequestHandle):
@@ -106,8 +79,7 @@ class SimRobot:
         self._reloc_rng = np.random.default_rng(streams[3])
         self._objects = world.objects_in_session(session)
         self._pending = list(world.during_changes(session))
-        self.scene = Scene(world, self._objects, world.obstacles_in_session(session),
-                           replace(p.scene, lidar_height=p.lidar.height))
+        self.scene = Scene(world, self._objects, world.obstacles_in_session(session), p.scene, p.lidar.height)
         self.people = People(self.scene, p.faults.people, p.faults.person_speed, people_rng,
                              keep_clear=(world.start.x, world.start.y))
         self.lidar = Lidar(p.lidar)

@@ -20,20 +20,14 @@ What is solid for whom (kept deliberately simple):
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.sim.lidar import DistanceField
+from bomc_bt.sim.params import LidarParams, SceneParams
 from bomc_bt.world import Obstacle, World, WorldObject
-
-
-@dataclass
-class SceneParams:
-    lidar_height: float = 0.25  # m above the floor
-    collision_height: float = 0.4  # m; boxes whose bottom is below this block the base
 
 
 def _spans(bottom: float, top: float, height: float) -> bool:
@@ -44,8 +38,11 @@ class Scene:
     """Walls + current objects + obstacles, with distance fields for lidar and collision."""
 
     def __init__(self, world: World, objects: dict[str, WorldObject], obstacles: Iterable[Obstacle],
-                 params: SceneParams | None = None):
+                 params: SceneParams | None = None, lidar_height: float = LidarParams.height):
+        """``lidar_height``: the scan plane's height (``sim.lidar.height``), which decides what
+        the lidar sees."""
         self.params = params or SceneParams()
+        self.lidar_height = lidar_height
         self.world = world
         self.grid: OccupancyGrid = world.grid
         self.walls = world.walls()
@@ -71,12 +68,12 @@ class Scene:
         for obj in self.objects.values():
             bottom = obj.position[2] - obj.size[2] / 2.0
             top = obj.position[2] + obj.size[2] / 2.0
-            if _spans(bottom, top, p.lidar_height):
+            if _spans(bottom, top, self.lidar_height):
                 seen.append(obj.footprint())
             if bottom < p.collision_height:
                 solid.append(obj.footprint())
         for obs in self.obstacles:
-            if _spans(0.0, obs.height, p.lidar_height):
+            if _spans(0.0, obs.height, self.lidar_height):
                 seen.append(obs.footprint())
             solid.append(obs.footprint())
         lidar = self.walls | self._rasterise(seen)

@@ -23,7 +23,8 @@ from bomc_bt.tree.decorators import DECORATORS, DecoratorEnv
 from bomc_bt.tree.leaf import blackboard_key
 from bomc_bt.tree.loop import Loop
 from bomc_bt.tree.registry import Registry
-from bomc_bt.tree.spec import as_list, check_keys, check_ports, describe, is_file, node_name, parse_yaml, remap_spec
+from bomc_bt.tree.spec import as_list, check_keys, check_ports, describe, is_file, node_name, remap_spec
+from bomc_bt.yaml_io import read_yaml
 
 Node = py_trees.behaviour.Behaviour
 TreeError = BomcError
@@ -107,7 +108,7 @@ class _Builder:
 
     def read_file(self, path: Path, chain: tuple[Path, ...]) -> dict:
         """Parse ``path``, load its includes, register its subtrees; returns its mapping."""
-        data = parse_yaml(path)
+        data = read_yaml(path, "tree file")
         if not isinstance(data, dict):
             raise BomcError(f"a tree file must be a mapping, got {describe(data)}", path)
         for key in data:

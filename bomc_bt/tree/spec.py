@@ -1,6 +1,6 @@
 """Checks on the YAML of a tree file that do not depend on the tree being built.
 
-Reading a file (:func:`parse_yaml`), the small value checks every node kind shares
+The small value checks every node kind shares
 (names, remaps, lists, allowed keys) and a leaf's ``ports:`` entry. Each mistake is a
 :class:`~bomc_bt.errors.BomcError` naming the file and the node path.
 """
@@ -11,27 +11,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from bomc_bt.errors import BomcError
 from bomc_bt.tree.leaf import blackboard_key
-
-
-def parse_yaml(path: Path) -> Any:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise BomcError("tree file not found", path) from None
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise BomcError(f"cannot read the tree file: {exc}", path) from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.MarkedYAMLError as exc:
-        mark = exc.problem_mark or exc.context_mark
-        at = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-        raise BomcError(f"invalid YAML: {at}{exc.problem or exc.context}", path) from None
-    except Exception as exc:  # noqa: BLE001 - YAML values pyyaml cannot build (bad dates, ...)
-        raise BomcError(f"invalid YAML: {exc}", path) from None
 
 
 def is_file(path: Path) -> bool:

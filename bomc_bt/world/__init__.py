@@ -7,7 +7,7 @@ The public face of the package; import from here. The parts, one job each:
   *n* at time *t* (the timeline rules are written there);
 * :mod:`.walls` -- which map cells are solid and whether a box stands inside a wall;
 * :mod:`.loader` -- the world file format and its validation (:func:`load_world`), with
-  :mod:`.fields` (typed field reads with one-line errors) and :mod:`.yaml_file` (strict YAML).
+  :mod:`.fields` (typed field reads with one-line errors); strict YAML comes from :mod:`bomc_bt.yaml_io`.
 """
 
 from bomc_bt.world.loader import DEFAULT_WALL_HEIGHT, FORMAT_VERSION, load_world

@@ -20,7 +20,7 @@ from bomc_bt.world.fields import FieldReader, describe, join
 from bomc_bt.world.records import Change, DuringChange, Obstacle, WorldObject
 from bomc_bt.world.timeline import World, apply_change, entry_key
 from bomc_bt.world.walls import embedded_in_wall
-from bomc_bt.world.yaml_file import read_yaml
+from bomc_bt.yaml_io import read_yaml
 
 FORMAT_VERSION = 1
 DEFAULT_WALL_HEIGHT = 2.5
@@ -35,7 +35,7 @@ _DURING_KEYS = {"session", "at"} | _CHANGE_KEYS
 def load_world(path: str | Path) -> World:
     """Load and fully validate a world file (format version 1)."""
     path = Path(path)
-    data = read_yaml(path)
+    data = read_yaml(path, "world file")
     return _Parser(path).world(data)
 
 

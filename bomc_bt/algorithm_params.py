@@ -1,0 +1,223 @@
+"""Parameter records of the robot-independent algorithms: planner, scan matcher,
+exploration, traversal and back-projection.
+
+They live apart from the numeric code (which needs OpenCV) so that reading and checking
+a configuration needs only this module. Each field's comment gives its unit and meaning;
+``config/defaults.yaml`` is generated from them (see :mod:`bomc_bt.config_docs`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from bomc_bt.params import Radians
+
+_REFERENCE_WIDTH = 640  # stride and min_points are given for a 640 x 480 image
+_REFERENCE_AREA = 640 * 480
+
+
+@dataclass
+class PlannerParams:
+    """Costmap and search settings of the global planner (names follow the ROS navigation stack)."""
+
+    robot_radius: float = 0.3  # [m] closer than this to an obstacle is lethal
+    inflation_radius: float = 0.7  # [m] the clearance cost decays to zero at this distance
+    cost_weight: float = 3.0  # [-] extra cost per metre next to lethal space (quadratic decay)
+    resolution: float = 0.1  # [m] planning grid cell size (never finer than the map)
+    allow_unknown: bool = False  # [bool] plan through unknown cells (navfn's allow_unknown)
+    goal_tolerance: float = 0.3  # [m] a lethal goal may move this far to a traversable cell
+    escape_radius: float = 1.0  # [m] how far to look for a traversable cell from a lethal start
+    heuristic_weight: float = 1.0  # [-] above 1: weighted A* (fewer expansions, less clearance-optimal)
+
+    def __post_init__(self) -> None:
+        if self.robot_radius < 0 or self.inflation_radius < self.robot_radius:
+            raise ValueError("need 0 <= robot_radius <= inflation_radius")
+        if self.heuristic_weight < 1.0:
+            raise ValueError("heuristic_weight must be >= 1")
+        if self.resolution <= 0 or self.goal_tolerance < 0 or self.cost_weight < 0:
+            raise ValueError("resolution must be > 0; goal_tolerance, cost_weight >= 0")
+
+
+@dataclass
+class RelocalizationParams:
+    """Search windows, resolutions and the confidence test of the scan matcher (relocalization)."""
+
+    search_radius: float = 1.2  # [m] search window around the hint (covers a hint that is up to 1 m off)
+    # [deg] search window around the hint's yaw; covers up to 30 deg of error (0.6 rad exactly)
+    search_angle_deg: float = 34.37746770784939
+    search_angle = Radians()
+    linear_step: float = 0.1  # [m] coarse grid step (rounded to whole map cells)
+    angular_step_deg: float = 2.0  # [deg] coarse grid step
+    angular_step = Radians()
+    fine_linear_step: float = 0.02  # [m] first refinement's step
+    fine_angular_step_deg: float = 0.5  # [deg] first refinement's step
+    fine_angular_step = Radians()
+    final_linear_step: float = 0.01  # [m] last refinement's step
+    final_angular_step_deg: float = 0.2  # [deg] last refinement's step
+    final_angular_step = Radians()
+    sigma: float = 0.1  # [m] likelihood field std for refinement and the reported score
+    coarse_sigma: float = 0.25  # [m] wider field for the coarse grid, so its steps cannot miss the peak
+    min_score: float = 0.6  # [-] mean beam likelihood needed to be confident
+    min_margin: float = 0.05  # [-] the best must beat the far runner-up by this fraction of its score
+    see_through_tolerance: float = 0.1  # [m] a beam may pass this close to a wall before its end
+    wall_probe: tuple[float, ...] = (0.12, 0.2, 0.3)  # [list] m before each beam's end checked during refinement
+    ambiguity_distance: float = 1.0  # [m] a runner-up farther than this is a different pose
+    ambiguity_angle_deg: float = 45.0  # [deg] a runner-up facing this much elsewhere is a different pose
+    ambiguity_angle = Radians()
+    max_beams: int = 180  # [count] beams used for the local coarse grid and refinement (evenly subsampled)
+    final_beams: int = 720  # [count] beams used by the last refinement, where few poses are left to score
+    min_beams: int = 20  # [count] fewer valid beams than this can never be confident
+    max_recentre: int = 8  # [count] times a refinement grid may move to follow a peak off its edge
+    rivals: int = 3  # [count] distinct coarse peaks far from the winner refined to find the runner-up
+    local_candidates: int = 4  # [count] distinct coarse peaks refined in a local search
+    global_linear_step: float = 0.3  # [m] coarse grid of candidate positions over the free space
+    global_angular_step_deg: float = 3.0  # [deg] coarse grid step of a global search
+    global_angular_step = Radians()
+    global_sigma: float = 0.3  # [m] likelihood field std for the global coarse grid
+    global_beams: int = 60  # [count] beams used by the global coarse grid
+    global_clearance: float = 0.2  # [m] candidate positions keep this distance from obstacles
+    global_candidates: int = 16  # [count] distinct coarse peaks refined in a global search
+
+    def __post_init__(self) -> None:
+        positive = ("search_radius", "linear_step", "angular_step_deg", "fine_linear_step", "fine_angular_step_deg",
+                    "final_linear_step", "final_angular_step_deg", "sigma", "coarse_sigma", "global_linear_step",
+                    "global_angular_step_deg", "global_sigma", "ambiguity_distance", "ambiguity_angle_deg")
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive")
+        if min(self.search_angle_deg, self.global_clearance, self.see_through_tolerance, self.max_recentre,
+               *self.wall_probe) < 0:
+            raise ValueError("search_angle_deg, global_clearance, see_through_tolerance, max_recentre and "
+                             "wall_probe must not be negative")
+        if not 0.0 <= self.min_margin < 1.0:
+            raise ValueError("min_margin must be in [0, 1)")
+        for name in ("max_beams", "final_beams", "global_beams", "local_candidates",
+                     "global_candidates", "rivals", "min_beams"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be at least 1")
+
+
+@dataclass
+class ExplorationParams:
+    """Tunables of the exploration step (DWFE or the explore_lite baseline)."""
+
+    explorer: Literal["dwfe", "baseline"] = "dwfe"  # [choice] the paper's DWFE or the explore_lite baseline
+    # [m] r_l, the local window: a few metres is one room or one corridor segment for a
+    # Fetch-class base: about what its laser clears well from one stop (indoor returns are
+    # dense up to ~5 m), and small enough that the window does not reach into the next room.
+    local_radius: float = 4.0
+    global_radius: float = 1000.0  # [m] r_g, the global window: effectively the whole building (the fallback)
+    # [count] T_l: stay local while at least this many frontiers remain nearby; a single
+    # leftover local frontier is often a sliver (behind a chair, a laser shadow).
+    local_threshold: int = 2
+    global_threshold: int = 1  # [count] T_g: stop when fewer frontiers than this are left anywhere
+    # [-] alpha, the weight of travel distance: 1 m of extra travel is worth 2 m of extra
+    # frontier length (with beta 0.5), so a 1 m doorway 1 m further away still beats a 0.5 m
+    # sliver close by, but the robot does not cross the window for a long frontier.
+    alpha: float = 1.0
+    beta: float = 0.5  # [-] beta, the weight of frontier length against alpha's distance
+    potential_scale: float = 3.0  # [-] the baseline's weight of distance (explore_lite default)
+    gain_scale: float = 1.0  # [-] the baseline's weight of frontier size (explore_lite default)
+    min_frontier_size: float = 0.5  # [m] shorter frontiers are ignored (explore_lite's min_frontier_size)
+    max_time: float = 3600.0  # [s] robot time after which exploration stops
+    blacklist_radius: float = 0.5  # [m] frontiers this close to a failed goal are skipped
+    progress_timeout: float = 30.0  # [s] robot time without progress before a goal is blacklisted
+
+    def __post_init__(self) -> None:
+        if self.explorer not in ("dwfe", "baseline"):
+            raise ValueError(f"explorer: must be 'dwfe' or 'baseline', got {self.explorer!r}")
+        _positive(self, "local_radius", "global_radius", "max_time", "progress_timeout")
+        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale",
+                      "min_frontier_size", "blacklist_radius")
+        if self.global_radius < self.local_radius:
+            raise ValueError("global_radius: must be at least local_radius "
+                             f"({self.global_radius} < {self.local_radius})")
+        for name in ("local_threshold", "global_threshold"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or int(value) != value or value < 1:
+                raise ValueError(f"{name}: must be a whole number >= 1, got {value!r}")
+
+    def min_size_cells(self, resolution: float) -> int:
+        """``min_frontier_size`` as a cell count for :func:`find_frontiers` (explore_lite keeps
+        frontiers with ``size * resolution >= min_frontier_size``)."""
+        return max(1, math.ceil(self.min_frontier_size / resolution - 1e-9))
+
+
+def _positive(params: ExplorationParams, *names: str) -> None:
+    for name in names:
+        value = getattr(params, name)
+        if not (value > 0) or math.isnan(value) or (math.isinf(value) and name != "global_radius"):
+            raise ValueError(f"{name}: must be a positive number, got {value!r}")
+
+
+def _non_negative(params: ExplorationParams, *names: str) -> None:
+    for name in names:
+        value = getattr(params, name)
+        if not (value >= 0) or not math.isfinite(value):
+            raise ValueError(f"{name}: must be a finite number >= 0, got {value!r}")
+
+
+@dataclass
+class TraversalParams:
+    """How the monitor pass's waypoints are sampled from the build trajectory and ordered."""
+
+    spacing: float = 2.0  # [m] minimum distance between any two waypoints
+    two_opt: bool = True  # [bool] improve the greedy order by 2-opt
+    max_two_opt_passes: int = 20  # [count] 2-opt passes at most
+    face_travel_direction: bool = True  # [bool] waypoint yaw towards the next waypoint (else the recorded yaw)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.spacing) and self.spacing > 0):
+            raise ValueError("spacing must be a positive number")
+        if self.max_two_opt_passes < 0:
+            raise ValueError("max_two_opt_passes must not be negative")
+
+
+@dataclass
+class ProjectionParams:
+    """Back-projection of detections to map positions, and the camera's field of view."""
+
+    min_points: int = 30  # [count] fewer valid sampled points than this (at 640 x 480) and the detection is skipped
+    stride: int = 2  # [count] sample every stride-th pixel in both directions (at 640 x 480)
+    max_depth: float = 6.0  # [m] farther pixels are not used (depth noise grows with depth squared)
+    fov_columns: int = 64  # [count] image columns sampled for the field-of-view polygon
+    # [m] a node farther from the camera is not expected to be detected (robust mode): far
+    # objects are small in the image and often missed, so their absence proves little. The
+    # one camera reach every planner of views uses (Look Around, gap and refresh viewpoints).
+    expect_range: float = 5.0
+    # [choice] how an object's position is taken from its points: "mean" is the paper's (the
+    # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
+    # the middle of the points' spread on the floor (1st to 99th percentile). The mean of the
+    # visible surface leans towards the viewer by up to half the object's depth, so a table
+    # seen from two sides gives two centroids a metre apart; the footprint's middle stays put.
+    centre: Literal["mean", "footprint"] = "footprint"
+    # [m] only objects this near give a floor box (Observation.box) that association trusts
+    # for footprints; depth noise grows with range squared, and a box from a far view is
+    # inflated along the ray by it (at 7 m a typical sensor's noise is ~0.25 m).
+    box_range: float = 4.0
+
+    def __post_init__(self) -> None:
+        if self.min_points < 1:
+            raise ValueError("min_points must be >= 1")
+        if self.stride < 1:
+            raise ValueError("stride must be >= 1")
+        if not self.max_depth > 0.0:
+            raise ValueError("max_depth must be positive")
+        if self.box_range < 0.0:
+            raise ValueError("box_range must be >= 0 (0: no boxes)")
+        if self.fov_columns < 2:
+            raise ValueError("fov_columns must be >= 2")
+
+    def scaled(self, shape: tuple[int, int]) -> tuple[int, int]:
+        """(stride, min_points) for an image of ``shape`` (H, W).
+
+        Both are given for 640 x 480 so one config serves a full-resolution camera and a
+        simulator rendering at a quarter of it: a smaller image gets a finer stride and a
+        smaller point minimum, so the same objects (same apparent size) pass or fail.
+        """
+        h, w = shape
+        stride = max(1, round(self.stride * w / _REFERENCE_WIDTH))
+        factor = (h * w / _REFERENCE_AREA) * (self.stride / stride) ** 2
+        return stride, max(3, round(self.min_points * factor))
