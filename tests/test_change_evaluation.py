@@ -208,7 +208,7 @@ def test_evaluate_of_an_unrecorded_session_is_one_line_and_exit_2(tmp_path, caps
 
 # --------------------------------------------------------------- end to end: lab-b
 def test_lab_b_session_2_reports_its_removals_in_bomc_evaluate(shared, tmp_path, capsys):
-    """lab-b session 2 removes two bins and the umbrella and moves both people 4.6 and 7 m.
+    """lab-b session 2 removes two bins and the umbrella and moves the people 2.5 and 7 m.
     Measured (seed 0 build, passes seeded 1, 2): removed 3/3 with one fp, moved 1/2 (the
     person moved 7 m is beyond move_radius, so the map says removed + added), no phantom."""
     world, site = shared / "worlds" / "lab-b.yaml", tmp_path / "site"
