@@ -147,11 +147,16 @@ def _dispatch(args) -> int:
         return _view(args)
     config = run.build_config(args.config)
     if args.command == "evaluate":
+        from bomc_bt.evaluate_changes import changes_to_json, evaluate_changes, format_changes
         from bomc_bt.evaluate_site import evaluate_session, format_result
         from bomc_bt.evaluation import to_json
 
         result = evaluate_session(args.world, args.site, args.session, config)
-        print(json.dumps(to_json(result)) if args.json else format_result(result))
+        changes = evaluate_changes(args.world, args.site, args.session, config)
+        if args.json:
+            print(json.dumps({**to_json(result), "changes": changes_to_json(changes)}))
+        else:
+            print(format_result(result) + "\n\n" + format_changes(changes))
         return 0
     if args.command == "demo":
         from bomc_bt.demo import run_demo

@@ -106,7 +106,15 @@ def _match(nodes: np.ndarray, gt: np.ndarray, radius: float) -> list[tuple[int, 
     if len(nodes) == 0 or len(gt) == 0:
         return []
     dist = np.sqrt(((nodes[:, None, :] - gt[None, :, :]) ** 2).sum(axis=2))
-    edges = dist <= radius
+    return match_pairs(dist, dist <= radius)
+
+
+def match_pairs(dist: np.ndarray, edges: np.ndarray) -> list[tuple[int, int, float]]:
+    """Maximum one-to-one matching of rows to columns over the allowed ``edges`` (n, m), and
+    among those the one with the smallest total ``dist``: [(row, col, dist)], sorted.
+
+    The protocol's matching with the gate left to the caller (change evaluation gates a
+    move on both of its ends)."""
     pairs: list[tuple[int, int, float]] = []
     for rows, cols in _components(edges):
         sub = dist[np.ix_(rows, cols)]

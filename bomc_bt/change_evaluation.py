@@ -1,0 +1,214 @@
+"""Change evaluation: did a monitor pass report what really changed since the previous pass?
+
+The object protocol (:mod:`bomc_bt.evaluation`) scores the map at the end of a pass; an
+operator runs passes to learn *what changed*. This module compares the changes a pass
+reported with the changes that really happened, between the end of the previous recorded
+pass and the end of this one (issue 17, item 1).
+
+**True changes** (from the world's timeline, objects keyed by name): an object present
+only after is ``added``, one present only before is ``removed``, one present in both and
+displaced by more than its category's association distance is ``moved`` (a nudge smaller
+than that is not a change the map can show). An object that disappears and comes back
+under the same name in another category counts as removed plus added.
+
+**Net changes** (from the store, nodes keyed by id): only nodes with an event in the pass
+are looked at, and only their state at the two ends counts, so a node removed and re-added
+(or moved away and back) within the pass is no change at all. present -> absent is
+``removed`` (at the node's last position, that of its removal), absent -> present is
+``added``, present -> present displaced by more than the association distance is ``moved``.
+
+**Matching**, per kind and category, one-to-one, the object protocol's maximum matching
+within the association distance: a removal on the removed object's old position, an
+addition on the added object's position, a move on its new position *and* its old one.
+Unmatched net changes are false positives, unmatched true changes false negatives; scores
+as in the object protocol (None where undefined). A move the map reported as a removal
+plus an addition earns no credit: one fn ``moved``, one fp ``removed``, one fp ``added``
+-- the operator was told an object vanished and another appeared, not that it moved.
+``overall`` sums the three kinds.
+
+**Phantoms** are the false positives with no real change behind them at all: no true
+change of the same category, of any kind, matched or not, has an end (old or new
+position) within the association distance of an end of the reported change. A move
+reported as removal plus addition, or a real removal reported twice, is wrong but not a
+phantom; a removal where nothing changed (a duplicate node cleaned up, an object the
+robot failed to see) is.
+
+Session 1 has no previous pass: it is scored against the empty map, so every object
+present when it ended is an addition and ``added`` reads like the object protocol.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bomc_bt.evaluation import ClassScores, match_pairs, scores
+from bomc_bt.graph import EVENT_KINDS, Event, Node
+
+CHANGE_KINDS = ("removed", "added", "moved")
+Threshold = Callable[[str], float]
+
+
+@dataclass(eq=False)
+class ObjectChange:
+    """One object's change between two passes: a true one (``key`` = object name) or one
+    the map reported (``key`` = node id). ``old`` is None for an addition, ``new`` for a removal."""
+
+    kind: str
+    key: str | int
+    category: str
+    old: np.ndarray | None
+    new: np.ndarray | None
+
+    def ends(self) -> np.ndarray:
+        """(k, 3) the positions this change touches (old and/or new)."""
+        return np.array([p for p in (self.old, self.new) if p is not None], dtype=float).reshape(-1, 3)
+
+
+@dataclass
+class ChangeMatch:
+    """A true positive: node ``node_id``'s reported change explains object ``name``'s."""
+
+    kind: str
+    node_id: int
+    name: str
+    category: str
+    distance: float  # for a move: the distances of both ends added
+
+
+@dataclass
+class ChangeResult:
+    session: int
+    previous: int | None  # the pass compared against (None: the empty map before session 1)
+    kinds: dict[str, ClassScores]  # gt = true changes, mapped = net changes of that kind
+    overall: ClassScores
+    phantom: int
+    raw_events: dict[str, int]  # the store's events of the pass, before netting
+    matches: list[ChangeMatch] = field(default_factory=list)
+    missed: list[ObjectChange] = field(default_factory=list)  # false negatives
+    wrong: list[ObjectChange] = field(default_factory=list)  # false positives, phantoms included
+    phantoms: list[ObjectChange] = field(default_factory=list)
+
+
+def _xyz(p) -> np.ndarray:
+    return np.asarray(p, dtype=float).reshape(3)
+
+
+def _displaced(a: np.ndarray, b: np.ndarray, limit: float) -> bool:
+    return bool(np.linalg.norm(a - b) > limit)
+
+
+def true_changes(before: Mapping[str, tuple[str, np.ndarray]], after: Mapping[str, tuple[str, np.ndarray]],
+                 threshold: Threshold) -> list[ObjectChange]:
+    """The world's changes from ``before`` to ``after`` ({name: (category, position)})."""
+    out: list[ObjectChange] = []
+    for name in sorted(set(before) | set(after)):
+        b, a = before.get(name), after.get(name)
+        if b is not None and a is not None and b[0] == a[0]:
+            old, new = _xyz(b[1]), _xyz(a[1])
+            if _displaced(old, new, threshold(a[0])):
+                out.append(ObjectChange("moved", name, a[0], old, new))
+            continue
+        if b is not None:
+            out.append(ObjectChange("removed", name, b[0], _xyz(b[1]), None))
+        if a is not None:
+            out.append(ObjectChange("added", name, a[0], None, _xyz(a[1])))
+    return out
+
+
+def net_changes(before: Sequence[Node], after: Sequence[Node], events: Sequence[Event],
+                threshold: Threshold) -> list[ObjectChange]:
+    """The map's net changes over one pass.
+
+    ``before`` / ``after``: the present nodes at the end of the previous pass and of this
+    one (:meth:`SiteStore.graph_after`); ``events``: this pass's history in write order.
+    """
+    was = {n.id: n for n in before}
+    now = {n.id: n for n in after}
+    last: dict[int, Event] = {}
+    for e in events:
+        last[int(e.node_id)] = e
+    out: list[ObjectChange] = []
+    for nid in sorted(last):
+        b, a = was.get(nid), now.get(nid)
+        if b is not None and a is not None:
+            if _displaced(_xyz(b.position), _xyz(a.position), threshold(a.category)):
+                out.append(ObjectChange("moved", nid, a.category, _xyz(b.position), _xyz(a.position)))
+        elif b is not None:
+            out.append(ObjectChange("removed", nid, b.category, _xyz(last[nid].position), None))
+        elif a is not None:
+            out.append(ObjectChange("added", nid, a.category, None, _xyz(a.position)))
+    return out
+
+
+def raw_event_counts(events: Sequence[Event]) -> dict[str, int]:
+    """How many events of each kind the pass wrote (every kind listed, zeros included)."""
+    counts = dict.fromkeys(EVENT_KINDS, 0)
+    for e in events:
+        counts[e.kind] = counts.get(e.kind, 0) + 1
+    return counts
+
+
+def _distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(axis=2))
+
+
+def _pairs(kind: str, net: list[ObjectChange], truth: list[ObjectChange], radius: float):
+    """The protocol's one-to-one matching of one kind and category, gated as the module says."""
+    if not net or not truth:
+        return []
+    end = "old" if kind == "removed" else "new"
+    dist = _distances(np.array([getattr(c, end) for c in net]), np.array([getattr(c, end) for c in truth]))
+    edges = dist <= radius
+    if kind == "moved":
+        before = _distances(np.array([c.old for c in net]), np.array([c.old for c in truth]))
+        edges &= before <= radius
+        dist = dist + before
+    return match_pairs(dist, edges)
+
+
+def _phantoms(wrong: list[ObjectChange], truth: list[ObjectChange], threshold: Threshold) -> list[ObjectChange]:
+    """The false positives no true change of their category comes near (see the module docstring)."""
+    out = []
+    for cat in sorted({c.category for c in wrong}):
+        cat_wrong = [c for c in wrong if c.category == cat]
+        ends = [c.ends() for c in truth if c.category == cat]
+        if not ends:
+            out.extend(cat_wrong)
+            continue
+        true_ends = np.concatenate(ends)
+        owner = np.concatenate([np.full(len(c.ends()), i) for i, c in enumerate(cat_wrong)])
+        near = (_distances(np.concatenate([c.ends() for c in cat_wrong]), true_ends) <= threshold(cat)).any(axis=1)
+        explained = set(owner[near].tolist())
+        out.extend(c for i, c in enumerate(cat_wrong) if i not in explained)
+    return out
+
+
+def score_changes(truth: Sequence[ObjectChange], net: Sequence[ObjectChange], threshold: Threshold,
+                  session: int, previous: int | None = None,
+                  raw_events: Mapping[str, int] | None = None) -> ChangeResult:
+    """Match the map's net changes to the true ones and score them per kind."""
+    kinds: dict[str, ClassScores] = {}
+    matches: list[ChangeMatch] = []
+    missed: list[ObjectChange] = []
+    wrong: list[ObjectChange] = []
+    for kind in CHANGE_KINDS:
+        tp = 0
+        kind_truth = [c for c in truth if c.kind == kind]
+        kind_net = [c for c in net if c.kind == kind]
+        for cat in sorted({c.category for c in kind_truth} | {c.category for c in kind_net}):
+            t = [c for c in kind_truth if c.category == cat]
+            m = [c for c in kind_net if c.category == cat]
+            pairs = _pairs(kind, m, t, float(threshold(cat)))
+            matches.extend(ChangeMatch(kind, int(m[a].key), str(t[b].key), cat, d) for a, b, d in pairs)
+            wrong.extend(c for i, c in enumerate(m) if i not in {a for a, _, _ in pairs})
+            missed.extend(c for i, c in enumerate(t) if i not in {b for _, b, _ in pairs})
+            tp += len(pairs)
+        kinds[kind] = scores(len(kind_truth), len(kind_net), tp)
+    overall = scores(sum(s.gt for s in kinds.values()), sum(s.mapped for s in kinds.values()),
+                     sum(s.tp for s in kinds.values()))
+    phantoms = _phantoms(wrong, list(truth), threshold)
+    return ChangeResult(session, previous, kinds, overall, len(phantoms), dict(raw_events or {}),
+                        matches, missed, wrong, phantoms)

@@ -1,0 +1,104 @@
+"""``bomc evaluate``'s change section: session N's reported changes against the world's.
+
+Both sides compare the end of the previous *recorded* pass with the end of pass N, so a
+session that was never run in between does not split the changes in two: the truth is
+what stood in the building when each pass ended (intra-session changes up to then
+included, as the object protocol does), the map is the store's history replayed to the
+end of each pass. Before session 1 there is no pass and no map: it is scored against the
+empty map. The rules are in :mod:`bomc_bt.change_evaluation`; the JSON extends
+CONTRACTS.md section 4 with a ``changes`` key.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bomc_bt.change_evaluation import (
+    CHANGE_KINDS,
+    ChangeResult,
+    net_changes,
+    raw_event_counts,
+    score_changes,
+    true_changes,
+)
+from bomc_bt.config import Config
+from bomc_bt.errors import BomcError
+from bomc_bt.evaluation import ClassScores
+from bomc_bt.graph import ObjectGraph
+from bomc_bt.site import Site
+from bomc_bt.store import SiteStore
+from bomc_bt.world import World, load_world
+
+
+def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: int, config: Config) -> ChangeResult:
+    """Score the net changes pass ``session`` made against the true ones since the previous pass."""
+    world = world if isinstance(world, World) else load_world(world)
+    site = Site(Path(site_dir))
+    if not site.store_path.exists():
+        raise BomcError("no object graph here: run `bomc monitor` first", site.store_path)
+    with SiteStore(site.store_path) as store:
+        recorded = {s.number: s for s in store.sessions()}
+        if session not in recorded:
+            known = ", ".join(map(str, sorted(recorded))) or "none"
+            raise BomcError(f"session {session} was not recorded (recorded: {known})", site.store_path, "--session")
+        previous = max((n for n in recorded if n < session), default=None)
+        events = store.events(session=session)
+        before = store.graph_after(previous) if previous is not None else []
+        after = store.graph_after(session)
+    threshold = ObjectGraph(config.association).threshold
+
+    def truth_at_end(n: int | None) -> dict[str, tuple[str, np.ndarray]]:
+        if n is None:
+            return {}
+        present = world.ground_truth(n, at=recorded[n].ended_stamp)
+        return {name: (o.category, np.asarray(o.position, dtype=float)) for name, o in present.items()}
+
+    truth = true_changes(truth_at_end(previous), truth_at_end(session), threshold)
+    net = net_changes(before, after, events, threshold)
+    return score_changes(truth, net, threshold, session, previous, raw_event_counts(events))
+
+
+def _r(x: float | None) -> float | None:
+    return None if x is None else round(x, 3)
+
+
+def _kind_json(s: ClassScores) -> dict[str, Any]:
+    return {"true": s.gt, "net": s.mapped, "tp": s.tp, "fp": s.fp, "fn": s.fn,
+            "precision": _r(s.precision), "recall": _r(s.recall), "f1": _r(s.f1)}
+
+
+def changes_to_json(result: ChangeResult) -> dict[str, Any]:
+    """The ``changes`` key of ``bomc evaluate --json`` (numbers to 3 decimals)."""
+    out: dict[str, Any] = {"previous_session": result.previous}
+    out.update({kind: _kind_json(result.kinds[kind]) for kind in CHANGE_KINDS})
+    out["overall"] = _kind_json(result.overall)
+    out["phantom"] = result.phantom
+    out["raw_events"] = dict(result.raw_events)
+    return out
+
+
+def format_changes(result: ChangeResult) -> str:
+    """A plain-text table of the pass's change scores, then what it missed and its phantoms."""
+    def f(x):
+        return "-" if x is None else f"{x:.3f}"
+
+    def describe(c) -> str:
+        ends = [", ".join(f"{v:.2f}" for v in p[:2]) for p in (c.old, c.new) if p is not None]
+        who = c.key if isinstance(c.key, str) else f"node {c.key}"
+        return f"{c.kind} {who} ({c.category}) at (" + ") -> (".join(ends) + ")"
+
+    since = "the empty map" if result.previous is None else f"session {result.previous}"
+    lines = [f"changes since {since}",
+             f"{'change':<16} {'true':>4} {'net':>4} {'tp':>4} {'fp':>4} {'fn':>4} {'prec':>6} {'rec':>6} {'f1':>6}"]
+    for name, s in [*((k, result.kinds[k]) for k in CHANGE_KINDS), ("overall", result.overall)]:
+        lines.append(f"{name:<16} {s.gt:>4} {s.mapped:>4} {s.tp:>4} {s.fp:>4} {s.fn:>4} "
+                     f"{f(s.precision):>6} {f(s.recall):>6} {f(s.f1):>6}")
+    raw = ", ".join(f"{k} {v}" for k, v in result.raw_events.items())
+    lines.append(f"phantom {result.phantom}; raw events {raw or 'none'}")
+    phantom_ids = {id(c) for c in result.phantoms}
+    lines += [f"  missed:  {describe(c)}" for c in result.missed]
+    lines += [f"  {'phantom:' if id(c) in phantom_ids else 'wrong:  '} {describe(c)}" for c in result.wrong]
+    return "\n".join(lines)

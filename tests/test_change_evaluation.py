@@ -1,0 +1,256 @@
+"""Change evaluation (issue 17, item 1): what a monitor pass reported as changed, against the
+world's true changes since the previous pass; ``bomc evaluate`` table and ``--json``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bomc_bt import cli, run
+from bomc_bt.change_evaluation import net_changes, raw_event_counts, score_changes, true_changes
+from bomc_bt.config import Config
+from bomc_bt.evaluate_changes import evaluate_changes
+from bomc_bt.graph import AssociationParams, Event, Node
+from bomc_bt.store import SiteStore
+from bomc_bt.world import load_world
+
+TESTS = Path(__file__).resolve().parent
+
+
+def d07(_category: str) -> float:
+    return 0.7
+
+
+def obj(cat: str, x: float, y: float = 0.0) -> tuple[str, np.ndarray]:
+    return cat, np.array([x, y, 0.0])
+
+
+def node(i: int, cat: str, x: float, y: float = 0.0) -> Node:
+    return Node(i, cat, np.array([x, y, 0.0]), 0.9, 1, 1)
+
+
+def ev(kind: str, i: int, cat: str, x: float, y: float = 0.0, session: int = 2) -> Event:
+    return Event(kind, i, cat, np.array([x, y, 0.0]), session, 10.0)
+
+
+def score(truth_before, truth_after, nodes_before, nodes_after, events, threshold=d07):
+    truth = true_changes(truth_before, truth_after, threshold)
+    net = net_changes(nodes_before, nodes_after, events, threshold)
+    return score_changes(truth, net, threshold, 2, 1, raw_event_counts(events))
+
+
+def counts(result, kind):
+    s = result.overall if kind == "overall" else result.kinds[kind]
+    return s.tp, s.fp, s.fn
+
+
+# ------------------------------------------------------------------ pure functions
+def test_a_removal_the_pass_found_is_a_true_positive():
+    r = score({"chair-1": obj("chair", 1.0), "chair-2": obj("chair", 5.0)}, {"chair-2": obj("chair", 5.0)},
+              [node(1, "chair", 1.2), node(2, "chair", 5.0)], [node(2, "chair", 5.05)],
+              [ev("removed", 1, "chair", 1.2), ev("updated", 2, "chair", 5.05)])
+    assert counts(r, "removed") == (1, 0, 0)
+    assert r.kinds["removed"].precision == 1.0 and r.kinds["removed"].recall == 1.0
+    assert [(m.kind, m.node_id, m.name) for m in r.matches] == [("removed", 1, "chair-1")]
+    assert counts(r, "overall") == (1, 0, 0) and r.phantom == 0
+    assert r.raw_events == {"added": 0, "removed": 1, "moved": 0, "updated": 1}
+    # nothing else happened: the other kinds have nothing to score
+    assert r.kinds["added"].f1 is None and r.kinds["moved"].precision is None
+
+
+def test_a_removal_undone_within_the_pass_is_no_change():
+    stay = {"chair-1": obj("chair", 1.0)}
+    # the node was removed (missed while occluded), then found again and kept its id
+    back = score(stay, stay, [node(1, "chair", 1.0)], [node(1, "chair", 1.1)],
+                 [ev("removed", 1, "chair", 1.0), ev("moved", 1, "chair", 1.1)])
+    assert counts(back, "overall") == (0, 0, 0) and back.phantom == 0
+    assert back.raw_events["removed"] == 1  # the raw log still shows the flicker
+    # the same flicker with a new id is a removal and an addition where nothing changed
+    new_id = score(stay, stay, [node(1, "chair", 1.0)], [node(7, "chair", 1.1)],
+                   [ev("removed", 1, "chair", 1.0), ev("added", 7, "chair", 1.1)])
+    assert counts(new_id, "removed") == (0, 1, 0) and counts(new_id, "added") == (0, 1, 0)
+    assert new_id.phantom == 2
+    assert new_id.kinds["removed"].precision == 0.0 and new_id.kinds["removed"].recall is None
+
+
+def test_a_node_added_and_removed_within_the_pass_is_no_change():
+    r = score({}, {}, [], [], [ev("added", 3, "bin", 2.0), ev("removed", 3, "bin", 2.0)])
+    assert counts(r, "overall") == (0, 0, 0) and r.phantom == 0
+
+
+def test_a_move_that_keeps_the_id_is_a_true_move():
+    r = score({"chair-1": obj("chair", 0.0)}, {"chair-1": obj("chair", 3.0, 1.0)},
+              [node(4, "chair", 0.1)], [node(4, "chair", 2.9, 1.1)], [ev("moved", 4, "chair", 2.9, 1.1)])
+    assert counts(r, "moved") == (1, 0, 0)
+    assert counts(r, "removed") == (0, 0, 0) and counts(r, "added") == (0, 0, 0)
+    assert r.matches[0].distance == pytest.approx(0.1 + np.hypot(0.1, 0.1))
+
+
+def test_a_move_reported_as_removal_plus_addition_earns_no_credit_but_is_no_phantom():
+    r = score({"chair-1": obj("chair", 0.0)}, {"chair-1": obj("chair", 6.0)},
+              [node(4, "chair", 0.1)], [node(9, "chair", 6.1)],
+              [ev("removed", 4, "chair", 0.1), ev("added", 9, "chair", 6.1)])
+    assert counts(r, "moved") == (0, 0, 1)
+    assert counts(r, "removed") == (0, 1, 0) and counts(r, "added") == (0, 1, 0)
+    assert counts(r, "overall") == (0, 2, 1)
+    assert r.phantom == 0  # both reports sit on the real move's ends
+    assert [c.key for c in r.missed] == ["chair-1"] and sorted(c.key for c in r.wrong) == [4, 9]
+
+
+def test_a_move_must_match_at_both_ends():
+    # the map moved a *different* chair onto the moved chair's new place
+    truth_before = {"chair-1": obj("chair", 0.0), "chair-2": obj("chair", 0.0, 4.0)}
+    truth_after = {"chair-1": obj("chair", 3.0), "chair-2": obj("chair", 0.0, 4.0)}
+    r = score(truth_before, truth_after, [node(1, "chair", 0.0), node(2, "chair", 0.0, 4.0)],
+              [node(1, "chair", 0.0), node(2, "chair", 3.0)], [ev("moved", 2, "chair", 3.0)])
+    assert counts(r, "moved") == (0, 1, 1)
+    assert r.phantom == 0  # its new end is the real move's: a wrong story, not an invented one
+
+
+def test_a_phantom_is_a_report_no_true_change_comes_near():
+    before = {"chair-1": obj("chair", 0.0), "table-1": obj("table", 5.0), "table-2": obj("table", 9.0)}
+    r = score(before, {"table-1": obj("table", 5.0)},
+              [node(1, "chair", 0.0), node(2, "table", 5.0), node(3, "table", 0.3), node(4, "table", 9.0)],
+              [node(2, "table", 5.0)],
+              [ev("removed", 1, "chair", 0.0), ev("removed", 3, "table", 0.3), ev("removed", 4, "table", 9.0),
+               ev("removed", 2, "table", 5.0), ev("moved", 2, "table", 5.0)])
+    # node 3 sits where a chair vanished, but no *table* changed near it: a phantom removal
+    assert counts(r, "removed") == (2, 1, 0)
+    assert r.phantom == 1 and [c.key for c in r.phantoms] == [3]
+    # a second report of a real removal is wrong, but not a phantom
+    twice = score({"bin-1": obj("bin", 0.0)}, {}, [node(1, "bin", 0.0), node(2, "bin", 0.2)], [],
+                  [ev("removed", 1, "bin", 0.0), ev("removed", 2, "bin", 0.2)])
+    assert counts(twice, "removed") == (1, 1, 0) and twice.phantom == 0
+
+
+def test_thresholds_are_the_categories_association_distances():
+    def per_category(cat: str) -> float:
+        return {"door": 0.3, "table": 1.5}.get(cat, 0.7)
+
+    before = {"door-1": obj("door", 0.0), "chair-1": obj("chair", 5.0), "table-1": obj("table", 10.0)}
+    after = {"door-1": obj("door", 0.5), "chair-1": obj("chair", 5.5), "table-1": obj("table", 11.0)}
+    truth = true_changes(before, after, per_category)
+    # a door nudged 0.5 m moved (beyond 0.3 m); the chair's 0.5 m and the table's 1 m are not changes
+    assert [(c.kind, c.key) for c in truth] == [("moved", "door-1")]
+    # the same cut on the map's side, and gating: a removal 1.2 m off counts for a table, not for a chair
+    nodes = [node(1, "door", 0.0), node(2, "table", 10.0), node(3, "chair", 20.0)]
+    moved = [node(1, "door", 0.4), node(2, "table", 11.0)]
+    net = net_changes(nodes, moved, [ev("updated", 1, "door", 0.4), ev("updated", 2, "table", 11.0)], per_category)
+    assert [(c.kind, c.key) for c in net] == [("moved", 1)]
+    gone = {"table-9": obj("table", 30.0), "chair-9": obj("chair", 40.0)}
+    r = score(gone, {}, [node(5, "table", 31.2), node(6, "chair", 41.2)], [],
+              [ev("removed", 5, "table", 31.2), ev("removed", 6, "chair", 41.2)], per_category)
+    assert [m.node_id for m in r.matches] == [5]
+    assert counts(r, "removed") == (1, 1, 1)
+
+
+def test_an_object_replaced_under_its_name_by_another_category_is_removed_and_added():
+    truth = true_changes({"thing": obj("chair", 1.0)}, {"thing": obj("table", 1.0)}, d07)
+    assert sorted((c.kind, c.category) for c in truth) == [("added", "table"), ("removed", "chair")]
+
+
+# ------------------------------------------------------------ site: truth windows
+def _site_with_sessions(site: Path, ended: dict[int, float]) -> None:
+    """A store whose passes saw nothing, ending at the given robot times."""
+    with SiteStore(site / "site.db") as store:
+        for n, stamp in ended.items():
+            store.begin_session(n, {"stamp": 0.0})
+            store.end_session(n, "succeeded", {"stamp": stamp})
+
+
+def _missed(result) -> set[tuple[str, str]]:
+    return {(c.kind, str(c.key)) for c in result.missed}
+
+
+def test_intra_session_changes_count_in_the_pass_that_was_running_when_they_happened(tmp_path):
+    # small_house: session 2 moves table-1 at 75.3 s; session 3 removes trash-bin-2 (and adds chair-3) at 36 s
+    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    config = Config()
+    file_changes_2 = {("removed", "door-1"), ("moved", "chair-2"), ("added", "trash-bin-2"), ("added", "door-2")}
+    file_changes_3 = {("removed", "trash-bin-1"), ("added", "cabinet-2")}
+
+    early = tmp_path / "early"  # pass 2 ended before the table moved, pass 3 before the bin went
+    _site_with_sessions(early, {1: 100.0, 2: 50.0, 3: 30.0})
+    assert _missed(evaluate_changes(world, early, 2, config)) == file_changes_2
+    r3 = evaluate_changes(world, early, 3, config)
+    assert r3.previous == 2
+    assert _missed(r3) == file_changes_3 | {("moved", "table-1")}
+
+    late = tmp_path / "late"  # both passes ended after their intra-session changes
+    _site_with_sessions(late, {1: 100.0, 2: 100.0, 3: 100.0})
+    assert _missed(evaluate_changes(world, late, 2, config)) == file_changes_2 | {("moved", "table-1")}
+    assert _missed(evaluate_changes(world, late, 3, config)) == file_changes_3 | {
+        ("removed", "trash-bin-2"), ("added", "chair-3")}
+
+
+def test_session_1_is_scored_against_the_empty_map_and_a_skipped_session_is_spanned(tmp_path):
+    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    _site_with_sessions(tmp_path, {1: 100.0, 3: 100.0})
+    first = evaluate_changes(world, tmp_path, 1, Config())
+    assert first.previous is None
+    assert _missed(first) == {("added", name) for name in world.objects}
+    spanned = evaluate_changes(world, tmp_path, 3, Config())
+    assert spanned.previous == 1
+    # door-1 went in session 2 and never came back: one removal since the last pass
+    assert ("removed", "door-1") in _missed(spanned) and ("added", "door-2") in _missed(spanned)
+
+
+def test_evaluate_of_an_unrecorded_session_is_one_line_and_exit_2(tmp_path, capsys):
+    _site_with_sessions(tmp_path, {1: 100.0})
+    code = cli.main(["evaluate", "--world", str(TESTS / "worlds" / "small_house.yaml"), "--site", str(tmp_path),
+                     "--session", "2"])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "session 2 was not recorded" in err
+
+
+# --------------------------------------------------------------- end to end: lab-b
+def test_lab_b_session_2_reports_its_removals_in_bomc_evaluate(shared, tmp_path, capsys):
+    """lab-b session 2 removes two bins and the umbrella and moves the people 2.5 and 7 m.
+    Measured (seed 0 build, passes seeded 1, 2): removed 3/3 with one fp, moved 1/2 (the
+    person moved 7 m is beyond move_radius, so the map says removed + added), no phantom."""
+    world, site = shared / "worlds" / "lab-b.yaml", tmp_path / "site"
+    config = run.build_config()
+    run.run_build(world, site, seed=0, config=config, quiet=True)
+    for n in (1, 2):
+        assert run.run_monitor(world, site, n, seed=n, config=config, quiet=True).succeeded
+    capsys.readouterr()
+    assert cli.main(["evaluate", "--world", str(world), "--site", str(site), "--session", "2", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert {"session", "classes", "overall"} <= set(out) and out["overall"]["f1"] >= 0.9  # old keys unchanged
+    changes = out["changes"]
+    with capsys.disabled():
+        print("\nlab-b session 2 changes:", json.dumps(changes))
+    assert changes["previous_session"] == 1
+    assert changes["removed"]["true"] == 3 and changes["removed"]["recall"] == 1.0
+    assert changes["moved"]["true"] == 2
+    assert changes["overall"]["recall"] >= 0.6
+    assert changes["phantom"] == 0
+    assert changes["raw_events"]["removed"] >= changes["removed"]["net"]
+    for kind in ("removed", "added", "moved", "overall"):
+        s = changes[kind]
+        assert s["tp"] + s["fn"] == s["true"] and s["tp"] + s["fp"] == s["net"]
+    assert cli.main(["evaluate", "--world", str(world), "--site", str(site), "--session", "2"]) == 0
+    table = capsys.readouterr().out
+    assert "changes since session 1" in table and table.index("overall") < table.index("changes since")
+    # session 1 has no previous pass: everything it mapped is an addition
+    first = json.loads(_evaluate_json(world, site, 1, capsys))["changes"]
+    assert first["previous_session"] is None and first["removed"]["true"] == 0
+    assert first["added"]["true"] == 12 and first["added"]["recall"] >= 0.9
+
+
+def _evaluate_json(world: Path, site: Path, session: int, capsys) -> str:
+    assert cli.main(["evaluate", "--world", str(world), "--site", str(site), "--session", str(session), "--json"]) == 0
+    return capsys.readouterr().out
+
+
+def test_association_params_reach_the_thresholds(tmp_path):
+    """The change gate is the configuration's association distance, not a constant."""
+    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    _site_with_sessions(tmp_path, {1: 100.0, 2: 100.0})
+    wide = Config(association=AssociationParams(per_category={"chair": 20.0}))
+    # chair-2 moved 3.1 m in session 2: a move at 0.7 m, a nudge at 20 m
+    assert ("moved", "chair-2") in _missed(evaluate_changes(world, tmp_path, 2, Config()))
+    assert ("moved", "chair-2") not in _missed(evaluate_changes(world, tmp_path, 2, wide))
