@@ -25,7 +25,7 @@ class LookAround(ActionLeaf):
     ago (``refresh_after``) that they may have gone since."""
 
     Params = LookAroundParams
-    config_params = {"radius": "projection.expect_range"}
+    config_params = {"radius": "projection.expect_range", "refresh_after": "mission.stale_after"}
 
     def send(self) -> None:
         ctx = self.context

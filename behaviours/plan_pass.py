@@ -100,7 +100,7 @@ class PlanRefreshStops(PlanPhase):
     """
 
     Params = RefreshParams
-    config_params = {"view_range": EXPECT_RANGE}
+    config_params = {"view_range": EXPECT_RANGE, "stale_after": "mission.stale_after"}
     phase = REFRESH
 
     def update(self) -> Status:

@@ -41,8 +41,8 @@ DistanceField = Callable[[tuple[float, float]], Callable[[np.ndarray], np.ndarra
 class RefreshParams:
     """Settings of the refresh tour (a leaf's ``params`` in ``trees/traverse.yaml``)."""
 
-    # s of robot time since a node was last confirmed that makes it worth another look;
-    # Look Around's refresh_after, so the stops' head turns go to the same nodes
+    # [s] robot time since a node was last confirmed that makes it worth another look; the
+    # leaf takes it from mission.stale_after, as Look Around does, so both see the same nodes
     stale_after: float = 600.0
     # the tour drives at most this fraction of the plan's path length (0: no tour)
     budget: float = 0.3

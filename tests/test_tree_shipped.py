@@ -89,10 +89,11 @@ def test_a_tree_param_that_is_a_config_value_is_refused(tmp_path):
 
 def test_leaves_read_config_values_and_the_one_staleness_limit(tmp_path):
     ctx = shipped_context(tmp_path)
+    ctx.config.mission.stale_after = 450.0  # an operator's config file: both leaves follow it
     root = load_tree(TREES / "monitor.yaml", load_registry(), ctx, clock=lambda: 0.0)
     leaves = {node.name: node for node in root.iterate()}
     expect = ctx.config.projection.expect_range
     assert leaves["Look Around"].params.radius == expect
     assert leaves["Plan Gap Viewpoints"].params.view_range == expect
     assert leaves["Plan Refresh Stops"].params.view_range == expect
-    assert leaves["Look Around"].params.refresh_after == leaves["Plan Refresh Stops"].params.stale_after == 600.0
+    assert leaves["Look Around"].params.refresh_after == leaves["Plan Refresh Stops"].params.stale_after == 450.0
