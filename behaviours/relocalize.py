@@ -30,8 +30,7 @@ class Relocalize(ActionLeaf):
     Params = RelocalizeParams
     writes = ("localized",)
 
-    @property
-    def kind(self) -> str:
+    def label(self) -> str:
         return "global" if self.params.global_search else "local"
 
     def send(self) -> Handle:
@@ -43,18 +42,10 @@ class Relocalize(ActionLeaf):
 
     def on_success(self) -> Status:
         pose = self.context.robot.pose()
-        self.feedback_message = f"{self.kind}: localized at ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f})"
-        self.set("localized", self.kind)
+        self.say(f"localized at ({pose.x:.2f}, {pose.y:.2f}, {pose.yaw:.2f})")
+        self.set("localized", self.label())
         return Status.SUCCESS
 
-    def on_failure(self, status) -> Status:
-        self.feedback_message = f"{self.kind}: {status.value}: {self.handle.message}"
-        return Status.FAILURE
-
-    def on_timeout(self) -> Status:
-        self.feedback_message = f"{self.kind}: no answer within {self.params.timeout:.0f} s"
-        return Status.FAILURE
-
     def on_running(self) -> Status:
-        self.feedback_message = f"{self.kind}: matching scans"
+        self.say("matching scans")
         return Status.RUNNING

@@ -21,14 +21,8 @@ import time
 
 import numpy as np
 
-from bomc_bt.graph import (
-    AssociationParams,
-    Node,
-    ObjectGraph,
-    Observation,
-    associate_linear_scan,
-    nodes_in_polygon_linear,
-)
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
+from bomc_bt.graph.reference import associate_linear_scan, nodes_in_polygon_linear
 
 CATEGORIES = [f"class{i}" for i in range(10)]
 

@@ -17,6 +17,7 @@ outcome means:
 
 from __future__ import annotations
 
+import abc
 import math
 
 from py_trees.common import Status
@@ -26,15 +27,24 @@ from bomc_bt.robot import Status as Request
 from bomc_bt.tree.leaf import Leaf
 
 
-class ActionLeaf(Leaf):
+class ActionLeaf(Leaf, metaclass=abc.ABCMeta):
     """A leaf that sends a robot request on start, polls it each tick and cancels it when halted."""
 
     handle: Handle | None = None
     deadline: float = math.inf
 
+    @abc.abstractmethod
     def send(self) -> Handle | None:
         """Start the request (called when the leaf starts)."""
-        raise NotImplementedError
+
+    def label(self) -> str:
+        """What the feedback messages start with ("local: no answer within 60 s"); "" for nothing."""
+        return ""
+
+    def say(self, text: str) -> None:
+        """Set the feedback message, after :meth:`label` where there is one."""
+        label = self.label()
+        self.feedback_message = f"{label}: {text}" if label else text
 
     def timeout(self) -> float | None:
         """Robot-clock seconds the request may take; None: no limit."""
@@ -54,12 +64,12 @@ class ActionLeaf(Leaf):
 
     def on_failure(self, status: Request) -> Status:
         """The request ended without success (failed, blocked, cancelled)."""
-        self.feedback_message = f"{status.value}: {self.handle.message}"
+        self.say(f"{status.value}: {self.handle.message}")
         return Status.FAILURE
 
     def on_timeout(self) -> Status:
         """The deadline passed with the request in flight (it was cancelled)."""
-        self.feedback_message = f"no answer within {self.timeout():.0f} s"
+        self.say(f"no answer within {self.timeout():.0f} s")
         return Status.FAILURE
 
     def on_running(self) -> Status:
