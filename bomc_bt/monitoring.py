@@ -12,7 +12,7 @@ events to the store, and accumulates the area the camera actually observed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from typing import Any
 
 import cv2
@@ -248,24 +248,30 @@ class FrameResult:
     events: list
 
 
+@dataclass
 class Perception:
-    """One RGB-D frame through the whole Perceive-Associate pipeline."""
+    """One RGB-D frame through the whole Perceive-Associate pipeline.
 
-    def __init__(self, detector: Detector, segmenter: Segmenter | None, categories: list[str],
-                 params: ProjectionParams, graph, store, session: int, grid: OccupancyGrid,
-                 occlusion_check: bool = True):
-        self.detector = detector
-        self.segmenter = segmenter
-        self.categories = categories
-        self.params = params
-        self.graph = graph
-        self.store = store
-        self.session = session
+    ``graph`` and ``store`` are the pass's :class:`~bomc_bt.graph.ObjectGraph` and
+    :class:`~bomc_bt.store.SiteStore` (the store may be None: nothing is persisted);
+    ``grid`` is the saved map the observed area is counted on.
+    """
+
+    detector: Detector
+    segmenter: Segmenter | None
+    categories: list[str]
+    params: ProjectionParams
+    graph: Any
+    store: Any
+    session: int
+    grid: InitVar[OccupancyGrid]
+    occlusion_check: bool = True
+    coverage: Coverage = field(init=False)
+    frames: int = 0  # frames processed
+    events: list = field(default_factory=list)  # every event of the pass, in order
+
+    def __post_init__(self, grid: OccupancyGrid) -> None:
         self.coverage = Coverage(grid)
-        self.occlusion_check = occlusion_check
-        self.frames = 0
-        self.skipped = 0
-        self.events: list = []
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)
