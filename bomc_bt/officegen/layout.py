@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from bomc_bt.errors import BomcError
 from bomc_bt.officegen.floor import FloorPlan
 from bomc_bt.officegen.params import ELEVATION, SIZES, OfficeParams
 from bomc_bt.officegen.rooms import RoomSpace
@@ -120,8 +121,8 @@ class Layout:
                 got = self.put(replace(item, x=x, y=y, room=room))
                 if got is not None:
                     return got
-        restored = self.put(item, margin=0.0, keepout=False)  # nowhere to go: it stays put
-        assert restored is not None, f"{name} no longer fits where it stood"
+        if self.put(item, margin=0.0, keepout=False) is None:  # nowhere to go: it stays put
+            raise BomcError(f"generator bug: {name} no longer fits where it stood")
         return None
 
     def bring_back(self, name: str) -> Item | None:

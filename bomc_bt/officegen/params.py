@@ -56,7 +56,7 @@ CHURN_WEIGHT: dict[str, float] = {
 # What appears when a session adds new objects (category, share).
 ADDED_MIX: tuple[tuple[str, float], ...] = (("chair", 0.6), ("trash bin", 0.25), ("potted plant", 0.15))
 
-MAX_CELLS = 25_000_000  # a 250 x 250 m floor at 0.05 m/cell: memory stays under a few hundred MB
+MAX_CELLS = 30_000_000  # a 270 x 270 m floor at 0.05 m/cell: memory stays under about 1 GB
 
 
 @dataclass
@@ -94,10 +94,13 @@ class OfficeParams:
 
         for f in fields(self):
             value = getattr(self, f.name)
+            if f.name in ("name", "seed", "sessions", "obstacle_every", "static"):
+                continue
             values = value if isinstance(value, tuple) else (value,)
-            for v in values:
-                if isinstance(v, float) or (isinstance(v, int) and not isinstance(v, bool)):
-                    need(math.isfinite(v), f.name, "must be a finite number")
+            need(all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values),
+                 f.name, "must be finite numbers" if isinstance(value, tuple) else "must be a finite number")
+        need(isinstance(self.static, bool), "static", "must be true or false")
+        need(isinstance(self.name, str), "name", "must be text")
         need(12.0 <= self.width <= 400.0, "width", "must be 12 to 400 m")
         need(12.0 <= self.height <= 400.0, "height", "must be 12 to 400 m")
         need(0.02 <= self.resolution <= 0.1, "resolution", "must be 0.02 to 0.1 m per cell")
