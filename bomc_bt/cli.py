@@ -72,6 +72,19 @@ def parser() -> argparse.ArgumentParser:
     d.add_argument("--config", action="append", default=[], metavar="FILE")
     d.add_argument("--quiet", action="store_true")
 
+    w = sub.add_parser("world", help="generate a simulation world (CONTRACTS 1)")
+    kinds = w.add_subparsers(dest="kind", required=True, parser_class=_Parser)
+    o = kinds.add_parser("office", help="an office floor of any size with sessions of changes")
+    o.add_argument("--out", required=True, help="world file to write (NAME.yaml; the map goes beside it)")
+    o.add_argument("--size", default="93x90", help="floor size WxH in metres (default 93x90, Environment A)")
+    o.add_argument("--seed", type=int, default=0)
+    o.add_argument("--sessions", type=int, default=3)
+    o.add_argument("--churn", type=float, default=None,
+                   help="share of movable objects changed before each session (default 0.05)")
+    o.add_argument("--static", action="store_true", help="nothing ever changes (all sessions identical)")
+    o.add_argument("--resolution", type=float, default=0.05, help="map metres per cell")
+    o.add_argument("--force", action="store_true", help="replace existing files")
+
     v = sub.add_parser("view", help="browse a finished site in the web viewer")
     v.add_argument("site", help="site directory")
     v.add_argument("--port", type=int, default=8765)
@@ -145,6 +158,11 @@ def _dispatch(args) -> int:
         return _mission(args)
     if args.command == "view":
         return _view(args)
+    if args.command == "world":
+        from bomc_bt.officegen.cli import generate_from_args
+
+        print(generate_from_args(args))
+        return 0
     config = run.build_config(args.config)
     if args.command == "evaluate":
         from bomc_bt.evaluate_changes import changes_to_json, evaluate_changes, format_changes
