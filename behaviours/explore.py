@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from py_trees.common import Status
 
 from behaviours.common import cancel_if_interrupted
-from bomc_bt.exploration.explorer import DONE, EXPLORING, TIME_LIMIT, Explorer, still_open
+from bomc_bt.exploration.explorer import DONE, EXPLORING, Explorer, still_open
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import Status as Nav
 from bomc_bt.site import TrajectoryRecorder
@@ -37,7 +37,8 @@ class StartExploration(Leaf):
         if ctx.explorer is None:
             clearance = ctx.config.sim.planner.robot_radius + 0.05
             ctx.explorer = Explorer(ctx.config.exploration, ctx.now(), ctx.max_time,
-                                    self.params.max_consecutive_failures, clearance)
+                                    self.params.max_consecutive_failures, clearance,
+                                    planner=ctx.config.sim.planner)
         if ctx.trajectory is None:
             ctx.trajectory = TrajectoryRecorder(ctx.site.trajectory_csv, ctx.config.mission.trajectory_period)
         self.feedback_message = f"explorer: {ctx.config.exploration.explorer}"
@@ -78,6 +79,9 @@ class ChooseFrontier(Leaf):
             return Status.FAILURE
         self.set("goal", goal)
         n = len(ctx.explorer.frontiers)
+        if goal.backout:
+            self.feedback_message = f"backing out to ({goal.xy[0]:.1f}, {goal.xy[1]:.1f}), {n} frontiers"
+            return Status.SUCCESS
         self.feedback_message = (
             f"{goal.window} window: frontier of {goal.frontier.length:.1f} m at "
             f"({goal.xy[0]:.1f}, {goal.xy[1]:.1f}), {n} frontiers")
@@ -110,8 +114,9 @@ class DriveToFrontier(Leaf):
     def update(self) -> Status:
         ctx, explorer = self.context, self.context.explorer
         now = ctx.now()
-        if explorer.time_up(now):
-            explorer.status, explorer.reason = TIME_LIMIT, f"time limit of {explorer.max_time:.0f} s reached"
+        pose = ctx.robot.pose()
+        explorer.observe((pose.x, pose.y) if pose is not None else None, now, ctx.progress.explored_area)
+        if explorer.limit_reached(now):
             self.feedback_message = explorer.reason
             return Status.FAILURE
         status = self.handle.status()
@@ -131,7 +136,7 @@ class DriveToFrontier(Leaf):
             self.set("nav_failure", f"{status.value}: {self.handle.message}")
             self.feedback_message = f"goal {status.value}: {self.handle.message}"
             return Status.FAILURE
-        if now >= self.next_check:
+        if now >= self.next_check and not self.goal.backout:
             self.next_check = now + self.params.recheck_period
             grid = ctx.robot.live_map()
             ctx.progress.explored_area = grid.free_area()
@@ -139,7 +144,6 @@ class DriveToFrontier(Leaf):
                 explorer.goal_reached()
                 self.feedback_message = "frontier mapped on the way"
                 return Status.SUCCESS
-        pose = ctx.robot.pose()
         if pose is not None:
             d = pose.distance_to(Pose2D(*self.goal.xy))
             self.feedback_message = f"driving to ({self.goal.xy[0]:.1f}, {self.goal.xy[1]:.1f}), {d:.1f} m"
@@ -163,14 +167,15 @@ class BlacklistGoal(Leaf):
         goal = self.get("goal")
         why = self.get("nav_failure") or "unreachable"
         pose = self.context.robot.pose()
-        explorer.goal_failed(goal, why, (pose.x, pose.y) if pose is not None else None, self.context.now())
+        explorer.goal_failed(goal, why, (pose.x, pose.y) if pose is not None else None, self.context.now(),
+                             self.context.robot.live_map())
         self.feedback_message = f"blacklisted ({goal.xy[0]:.1f}, {goal.xy[1]:.1f}): {why}"
         return Status.SUCCESS if explorer.status == EXPLORING else Status.FAILURE
 
 
 @register("ExplorationOutcome")
 class ExplorationOutcome(Leaf):
-    """Succeeds when exploration ended normally (done or time limit), fails when stuck."""
+    """Succeeds when exploration is done; fails when a limit cut it short or it is stuck."""
 
     def update(self) -> Status:
         ctx = self.context
@@ -179,5 +184,5 @@ class ExplorationOutcome(Leaf):
             explorer.status, explorer.reason = DONE, "no frontiers left"
         ctx.reason = f"{explorer.status}: {explorer.reason}"
         self.feedback_message = ctx.reason
-        return Status.FAILURE if explorer.status not in (DONE, TIME_LIMIT) else Status.SUCCESS
+        return Status.SUCCESS if explorer.status == DONE else Status.FAILURE
 

@@ -25,18 +25,22 @@ metres and its ``frontierCost`` still multiplies it by the resolution; we mirror
 exactly, because it is what makes the baseline favour large far frontiers at 5 cm maps.
 
 Goals that failed (navigation aborted, or no progress for ``progress_timeout`` seconds of
-robot time) go on a :class:`Blacklist`; frontiers near a blacklisted point are skipped by
-both explorers. Keeping that bookkeeping and the time limit here keeps Algorithm 1 in one
+robot time) go on a :class:`~bomc_bt.exploration.blacklist.Blacklist`; frontiers near an
+active entry are skipped by both explorers (entries are re-admitted when the map around
+them changes). Keeping that bookkeeping and the time limit here keeps Algorithm 1 in one
 place; the behaviour that drives the robot only supplies frontiers, pose and elapsed time.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
+from bomc_bt.exploration.blacklist import Blacklist
 from bomc_bt.exploration.frontiers import Frontier
+
+__all__ = ["Blacklist", "Choice", "ExplorationParams", "choose_frontier"]
 
 
 @dataclass
@@ -62,24 +66,55 @@ class ExplorationParams:
     beta: float = 0.5
     potential_scale: float = 3.0  # explore_lite defaults
     gain_scale: float = 1.0
-    min_frontier_size: float = 0.5  # metres (explore_lite's min_frontier_size)
-    max_time: float = 3600.0  # s of robot time
-    blacklist_radius: float = 0.5  # m around a failed goal
-    progress_timeout: float = 30.0  # s of robot time without progress -> goal blacklisted
+    min_frontier_size: float = 0.5  # [m] explore_lite's min_frontier_size (boundary length)
+    max_time: float = 0.0  # [s] robot-time limit of a build; 0 = none, explore until no reachable frontier is left
+    blacklist_radius: float = 0.5  # [m] frontiers this close to a failed goal are skipped
+    progress_timeout: float = 30.0  # [s] of robot time without progress -> goal blacklisted
+    # A build that maps less than min_progress_area in no_progress_time ends ("no_progress"):
+    # the guard against a runaway, instead of a fixed time limit.
+    no_progress_time: float = 600.0  # [s] of robot time without new mapped area -> exploration ends
+    min_progress_area: float = 2.0  # [m2] new known-free area that counts as progress
+    # A failed goal is tried again when the known area within blacklist_readmit_radius of it
+    # changed by more than blacklist_readmit_area, or when the robot comes within
+    # blacklist_near_radius of it; at most blacklist_max_retries times per place.
+    blacklist_readmit_radius: float = 1.0  # [m] neighbourhood of a failed goal watched for map changes
+    blacklist_readmit_area: float = 0.25  # [m2] change of known area there that re-admits it
+    blacklist_near_radius: float = 1.5  # [m] robot this close to a failed goal re-admits it
+    blacklist_max_retries: int = 2  # [count] re-admissions per place
+    # A robot that fails goals without moving backs out along its trajectory and replans
+    # before it is declared stuck.
+    backout_distance: float = 1.5  # [m] along the trajectory driven, back to where it came from
+    max_backouts: int = 2  # [count] back-outs without progress before "stuck" may be declared
+    # Frontiers count only where the planner can take the robot (its clearance, unknown
+    # treated as a wall); the others are reported as unreachable border, never chosen.
+    planner_reachable: bool = True  # [bool] filter frontiers by the planner's reachable area
 
     def __post_init__(self) -> None:
         if self.explorer not in ("dwfe", "baseline"):
             raise ValueError(f"explorer: must be 'dwfe' or 'baseline', got {self.explorer!r}")
-        _positive(self, "local_radius", "global_radius", "max_time", "progress_timeout")
-        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale",
-                      "min_frontier_size", "blacklist_radius")
+        _positive(self, "local_radius", "global_radius", "progress_timeout", "no_progress_time",
+                  "blacklist_readmit_radius", "blacklist_near_radius")
+        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale", "min_frontier_size",
+                      "blacklist_radius", "max_time", "min_progress_area", "blacklist_readmit_area",
+                      "backout_distance")
         if self.global_radius < self.local_radius:
             raise ValueError("global_radius: must be at least local_radius "
                              f"({self.global_radius} < {self.local_radius})")
-        for name in ("local_threshold", "global_threshold"):
+        for name, low in (("local_threshold", 1), ("global_threshold", 1), ("blacklist_max_retries", 0),
+                          ("max_backouts", 0)):
             value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or value < 1:
-                raise ValueError(f"{name}: must be a whole number >= 1, got {value!r}")
+            if isinstance(value, bool) or int(value) != value or value < low:
+                raise ValueError(f"{name}: must be a whole number >= {low}, got {value!r}")
+
+    @property
+    def time_limit(self) -> float | None:
+        """``max_time`` in seconds, or None when there is no limit (0)."""
+        return self.max_time if self.max_time > 0 else None
+
+    def blacklist(self) -> Blacklist:
+        """An empty blacklist with these re-admission rules."""
+        return Blacklist(self.blacklist_radius, self.blacklist_readmit_radius, self.blacklist_readmit_area,
+                         self.blacklist_near_radius, int(self.blacklist_max_retries))
 
     def min_size_cells(self, resolution: float) -> int:
         """``min_frontier_size`` as a cell count for :func:`find_frontiers` (explore_lite keeps
@@ -111,31 +146,6 @@ class Choice:
     reason: str
 
 
-@dataclass
-class Blacklist:
-    """Failed goals; frontiers whose nearest cell or centroid is within ``radius`` are skipped.
-
-    Checking both points matters: a frontier that shrinks after a failed attempt moves
-    its centroid, but the unreachable part of it (usually near its nearest cell) stays.
-    """
-
-    radius: float = 0.5
-    points: list[tuple[float, float]] = field(default_factory=list)
-
-    def add(self, xy: tuple[float, float]) -> None:
-        self.points.append((float(xy[0]), float(xy[1])))
-
-    def contains(self, xy: tuple[float, float]) -> bool:
-        x, y = float(xy[0]), float(xy[1])
-        return any(math.hypot(x - px, y - py) <= self.radius for px, py in self.points)
-
-    def filter(self, frontiers: list[Frontier]) -> list[Frontier]:
-        return [f for f in frontiers if not (self.contains(f.nearest) or self.contains(f.centroid))]
-
-    def __len__(self) -> int:
-        return len(self.points)
-
-
 def distance_to(frontier: Frontier, robot_xy: tuple[float, float]) -> float:
     """Robot -> frontier's nearest cell, in metres (equals ``frontier.distance`` when the
     frontier was found from ``robot_xy``; recomputed so a slightly moved robot is handled)."""
@@ -161,9 +171,9 @@ def choose_frontier(frontiers: list[Frontier], robot_xy: tuple[float, float], pa
 
     ``frontiers`` should come from ``find_frontiers`` at ``robot_xy`` with
     ``params.min_size_cells(resolution)``. ``elapsed`` is robot time since exploration
-    started; at ``max_time`` or later the result is a termination.
+    started; at ``max_time`` (when set) or later the result is a termination.
     """
-    if elapsed >= params.max_time:
+    if params.time_limit is not None and elapsed >= params.max_time:
         return Choice(None, "none", math.inf,
                       f"time limit reached ({elapsed:.0f} s >= {params.max_time:.0f} s)")
     candidates = blacklist.filter(frontiers) if blacklist is not None else list(frontiers)
