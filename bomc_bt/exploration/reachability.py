@@ -37,8 +37,11 @@ class Reachability:
         if not params.allow_unknown:
             lethal |= unknown
         _, labels = cv2.connectedComponents((~lethal).astype(np.uint8), connectivity=8)
-        start = _start_cell(lethal, grid, self.factor, robot_xy, params.escape_radius)
-        self.component = labels == labels[start] if start is not None else np.zeros(lethal.shape, bool)
+        # Every component within the planner's escape radius: a robot inside the inflated
+        # zone (a narrow corridor) is planned from the nearest traversable cell, which may
+        # lie in any of them as it moves.
+        self.component = np.isin(labels, _near_labels(labels, lethal, grid, self.factor, robot_xy,
+                                                      params.escape_radius))
         # A goal within the planner's goal tolerance of a traversable cell is accepted there.
         k = int(math.ceil(params.goal_tolerance / res))
         disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * k + 1, 2 * k + 1))
@@ -72,6 +75,22 @@ class Reachability:
         row, col = (int(v) // self.factor for v in self.grid.world_to_cell(xy[0], xy[1]))
         return (0 <= row < self.approach.shape[0] and 0 <= col < self.approach.shape[1]
                 and bool(self.approach[row, col]))
+
+
+def _near_labels(labels: np.ndarray, lethal: np.ndarray, grid: OccupancyGrid, factor: int,
+                 robot_xy: tuple[float, float], radius: float) -> list[int]:
+    """Labels of the traversable components within ``radius`` of the robot (its own cell's,
+    when traversable, else those the planner's start escape may pick)."""
+    start = _start_cell(lethal, grid, factor, robot_xy, radius)
+    if start is None:
+        return []
+    if not lethal[start] and start == tuple(int(v) // factor for v in grid.world_to_cell(*robot_xy)):
+        return [int(labels[start])]
+    row, col = (int(v) // factor for v in grid.world_to_cell(robot_xy[0], robot_xy[1]))
+    k = int(math.ceil(radius / (grid.resolution * factor)))
+    h, w = labels.shape
+    window = labels[max(row - k, 0):min(row + k + 1, h), max(col - k, 0):min(col + k + 1, w)]
+    return [int(v) for v in np.unique(window) if v != 0]
 
 
 def _start_cell(lethal: np.ndarray, grid: OccupancyGrid, factor: int, robot_xy: tuple[float, float],
