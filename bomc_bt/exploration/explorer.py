@@ -124,18 +124,6 @@ class Explorer:
         # behind a 220-degree lidar) is mapped by the turn towards any other goal.
         far = [f for f, xy in candidates if math.dist(xy, robot_xy) >= self.min_goal_distance]
         choice = choose_frontier(far, robot_xy, self.params, self.blacklist)
-        if choice.frontier is None and self.unreachable:
-            # The planner's snapshot is not the last word (the robot squeezes through gaps
-            # its costmap calls lethal, people block a corridor for a while): before
-            # declaring done, try what it calls unreachable; a failure only blacklists it.
-            distance = obstacle_distance(grid)
-            for f in self.unreachable:
-                targets[id(f)] = frontier_target(grid, f, distance, self.clearance)
-            rest = [f for f in self.unreachable if math.dist(targets[id(f)], robot_xy) >= self.min_goal_distance]
-            fallback = choose_frontier(rest, robot_xy, self.params, self.blacklist)
-            if fallback.frontier is not None:
-                choice = Choice(fallback.frontier, fallback.window, fallback.cost,
-                                "no frontier the planner reaches; trying one it calls unreachable")
         self.last_choice = choice
         if choice.frontier is None:
             unreachable = f"; {len(self.unreachable)} more the planner cannot reach" if self.unreachable else ""
