@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
-from bomc_bt.exploration.explorer import DONE, EXPLORING, TIME_LIMIT, Explorer, still_open
+from bomc_bt.exploration.explorer import DONE, EXPLORING, Explorer, still_open
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import Handle
 from bomc_bt.robot import Status as Nav
@@ -39,7 +39,8 @@ class StartExploration(Leaf):
         if ctx.explorer is None:
             clearance = ctx.config.sim.planner.robot_radius + 0.05
             ctx.explorer = Explorer(ctx.config.exploration, ctx.now(), ctx.max_time,
-                                    self.params.max_consecutive_failures, clearance)
+                                    self.params.max_consecutive_failures, clearance,
+                                    planner=ctx.config.sim.planner)
         if ctx.trajectory is None:
             ctx.trajectory = TrajectoryRecorder(ctx.site.trajectory_csv, ctx.config.mission.trajectory_period)
         self.feedback_message = f"explorer: {ctx.config.exploration.explorer}"
@@ -83,6 +84,9 @@ class ChooseFrontier(Leaf):
             return Status.SUCCESS
         self.set("goal", goal)
         n = len(ctx.explorer.frontiers)
+        if goal.backout:
+            self.feedback_message = f"backing out to ({goal.xy[0]:.1f}, {goal.xy[1]:.1f}), {n} frontiers"
+            return Status.SUCCESS
         self.feedback_message = (
             f"{goal.window} window: frontier of {goal.frontier.length:.1f} m at "
             f"({goal.xy[0]:.1f}, {goal.xy[1]:.1f}), {n} frontiers")
@@ -91,8 +95,8 @@ class ChooseFrontier(Leaf):
 
 @register("ExplorationOver")
 class ExplorationOver(Leaf):
-    """The exploration loop's exit condition: succeeds once the explorer says done, time
-    limit or stuck; fails (the loop goes on) while it is still exploring."""
+    """The exploration loop's exit condition: succeeds once the explorer says done, a limit
+    ended it or it is stuck; fails (the loop goes on) while it is still exploring."""
 
     def update(self) -> Status:
         explorer = self.context.explorer
@@ -129,10 +133,12 @@ class DriveToFrontier(ActionLeaf):
         return still_open(grid, self.goal.xy, p.open_radius, p.min_unknown)
 
     def before_poll(self) -> Status | None:
-        explorer = self.context.explorer
-        if explorer.time_up(self.context.now()):  # exploration is over, not this drive a failure
-            explorer.status, explorer.reason = TIME_LIMIT, f"time limit of {explorer.max_time:.0f} s reached"
-            self.feedback_message = explorer.reason
+        ctx, explorer = self.context, self.context.explorer
+        now = ctx.now()
+        pose = ctx.robot.pose()
+        explorer.observe((pose.x, pose.y) if pose is not None else None, now, ctx.progress.explored_area)
+        if explorer.limit_reached(now):  # a time limit or the progress guard: exploration is over,
+            self.feedback_message = explorer.reason  # not this drive a failure
             return Status.SUCCESS
         return None
 
@@ -154,7 +160,7 @@ class DriveToFrontier(ActionLeaf):
     def on_running(self) -> Status:
         ctx = self.context
         now = ctx.now()
-        if now >= self.next_check:
+        if now >= self.next_check and not self.goal.backout:
             self.next_check = now + self.params.recheck_period
             grid = ctx.robot.live_map()
             ctx.progress.explored_area = grid.free_area()
@@ -184,14 +190,15 @@ class BlacklistGoal(Leaf):
         goal = self.get("goal")
         why = self.get("nav_failure") or "unreachable"
         pose = self.context.robot.pose()
-        explorer.goal_failed(goal, why, (pose.x, pose.y) if pose is not None else None, self.context.now())
+        explorer.goal_failed(goal, why, (pose.x, pose.y) if pose is not None else None, self.context.now(),
+                             self.context.robot.live_map())
         self.feedback_message = f"blacklisted ({goal.xy[0]:.1f}, {goal.xy[1]:.1f}): {why}"
         return Status.SUCCESS
 
 
 @register("ExplorationOutcome")
 class ExplorationOutcome(Leaf):
-    """Succeeds when exploration ended normally (done or time limit), fails when stuck."""
+    """Succeeds when exploration is done; fails when a limit cut it short or it is stuck."""
 
     def update(self) -> Status:
         ctx = self.context
@@ -200,5 +207,5 @@ class ExplorationOutcome(Leaf):
             explorer.status, explorer.reason = DONE, "no frontiers left"
         ctx.reason = f"{explorer.status}: {explorer.reason}"
         self.feedback_message = ctx.reason
-        return Status.FAILURE if explorer.status not in (DONE, TIME_LIMIT) else Status.SUCCESS
+        return Status.SUCCESS if explorer.status == DONE else Status.FAILURE
 

@@ -121,23 +121,49 @@ class ExplorationParams:
     potential_scale: float = 3.0  # [-] the baseline's weight of distance (explore_lite default)
     gain_scale: float = 1.0  # [-] the baseline's weight of frontier size (explore_lite default)
     min_frontier_size: float = 0.5  # [m] shorter frontiers are ignored (explore_lite's min_frontier_size)
-    max_time: float = 3600.0  # [s] robot time after which exploration stops
+    max_time: float = 0.0  # [s] robot-time limit of a build; 0: none, explore until no reachable frontier is left
     blacklist_radius: float = 0.5  # [m] frontiers this close to a failed goal are skipped
     progress_timeout: float = 30.0  # [s] robot time without progress before a goal is blacklisted
+    # A build that maps less than min_progress_area in no_progress_time ends ("no_progress"):
+    # the guard against a runaway, instead of a fixed time limit.
+    no_progress_time: float = 600.0  # [s] robot time without new mapped area after which exploration ends
+    min_progress_area: float = 2.0  # [m2] new known-free area that counts as progress
+    # A failed goal is tried again when the known area within blacklist_readmit_radius of it
+    # changed by more than blacklist_readmit_area, or when the robot comes within
+    # blacklist_near_radius of it; at most blacklist_max_retries times per place.
+    blacklist_readmit_radius: float = 1.0  # [m] neighbourhood of a failed goal watched for map changes
+    blacklist_readmit_area: float = 0.25  # [m2] change of known area there that re-admits it
+    blacklist_near_radius: float = 1.5  # [m] the robot this close to a failed goal re-admits it
+    blacklist_max_retries: int = 2  # [count] re-admissions per place
+    # A robot that fails goals without moving backs out along its trajectory and replans
+    # before it is declared stuck.
+    backout_distance: float = 1.5  # [m] back along the trajectory driven, towards where it came from
+    max_backouts: int = 2  # [count] back-outs without progress before "stuck" may be declared
+    # [bool] frontiers count only where the planner can take the robot (its clearance, unknown
+    # treated as a wall); the others are reported as unreachable border, never chosen
+    planner_reachable: bool = True
 
     def __post_init__(self) -> None:
         if self.explorer not in ("dwfe", "baseline"):
             raise ValueError(f"explorer: must be 'dwfe' or 'baseline', got {self.explorer!r}")
-        _positive(self, "local_radius", "global_radius", "max_time", "progress_timeout")
-        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale",
-                      "min_frontier_size", "blacklist_radius")
+        _positive(self, "local_radius", "global_radius", "progress_timeout", "no_progress_time",
+                  "blacklist_readmit_radius", "blacklist_near_radius")
+        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale", "min_frontier_size",
+                      "blacklist_radius", "max_time", "min_progress_area", "blacklist_readmit_area",
+                      "backout_distance")
         if self.global_radius < self.local_radius:
             raise ValueError("global_radius: must be at least local_radius "
                              f"({self.global_radius} < {self.local_radius})")
-        for name in ("local_threshold", "global_threshold"):
+        for name, low in (("local_threshold", 1), ("global_threshold", 1), ("blacklist_max_retries", 0),
+                          ("max_backouts", 0)):
             value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or value < 1:
-                raise ValueError(f"{name}: must be a whole number >= 1, got {value!r}")
+            if isinstance(value, bool) or int(value) != value or value < low:
+                raise ValueError(f"{name}: must be a whole number >= {low}, got {value!r}")
+
+    @property
+    def time_limit(self) -> float | None:
+        """``max_time`` in seconds, or None when there is no limit (0)."""
+        return self.max_time if self.max_time > 0 else None
 
     def min_size_cells(self, resolution: float) -> int:
         """``min_frontier_size`` as a cell count for :func:`find_frontiers` (explore_lite keeps

@@ -31,6 +31,7 @@ def save_build(ctx) -> OccupancyGrid:
 def build_summary(ctx) -> dict[str, Any]:
     """The build record (``build.json``): area, path, robot time and how exploration ended."""
     explorer = ctx.explorer
+    pose = ctx.robot.pose()
     return {
         "explorer": ctx.config.exploration.explorer,
         "explored_area_m2": round(ctx.progress.explored_area, 2),
@@ -40,6 +41,17 @@ def build_summary(ctx) -> dict[str, Any]:
         "reason": explorer.reason if explorer else "",
         "goals": explorer.goals if explorer else 0,
         "failed_goals": explorer.failures if explorer else 0,
+        "backouts": explorer.backouts if explorer else 0,
+        "time_limit_s": explorer.max_time if explorer else None,
+        # robot time at which 99 % of the final explored area was mapped: how long the tail took
+        "area_99_s": _round(explorer.area.time_to(0.99)) if explorer else None,
+        # the unknown border left: frontiers (count, metres) the planner can and cannot reach
+        "frontiers_left": explorer.border(ctx.robot.live_map(), (pose.x, pose.y) if pose else None)
+        if explorer else {},
         "trajectory_points": ctx.trajectory.rows if ctx.trajectory else 0,
         "seed": ctx.seed,
     }
+
+
+def _round(value: float | None) -> float | None:
+    return None if value is None else round(value, 2)

@@ -219,6 +219,11 @@ def _report_build(result, site: str) -> int:
     s = result.summary
     print(f"build {s['outcome']}: {s['termination']} ({s['reason']}); explored {s['explored_area_m2']} m², "
           f"path {s['path_length_m']} m, {s['sim_time_s']} s robot time; map in {Path(site) / 'map.yaml'}")
+    left = s.get("frontiers_left") or {}
+    if s["outcome"] == "incomplete":  # the map is saved, but exploration did not finish: exit 1
+        print(f"bomc: build incomplete ({s['termination']}): {left.get('reachable', '?')} reachable frontier(s), "
+              f"{left.get('reachable_m', '?')} m of unexplored border left; the partial map was saved",
+              file=sys.stderr)
     return 0 if result.succeeded else 1
 
 

@@ -26,7 +26,7 @@ from typing import Any
 
 import yaml
 
-UNITS = ("m", "s", "deg", "deg/s", "m/s", "Hz", "count", "-", "bool", "choice", "text", "list")
+UNITS = ("m", "m2", "s", "deg", "deg/s", "m/s", "Hz", "count", "-", "bool", "choice", "text", "list")
 """The units a field's doc may start with: ``[-]`` is a ratio or unitless number."""
 
 WIDTH = 110  # characters a generated line aims to stay within

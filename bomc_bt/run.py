@@ -176,21 +176,37 @@ def run_build_mission(factory: RobotFactory, site_dir: str | Path, *, config: Co
     robot = factory.build_robot(config)
     try:
         ctx = MissionContext(robot=robot, config=config, site=site, mission="build", seed=seed, max_time=max_time)
-        limit = max_time if max_time is not None else config.exploration.max_time
+        # No limit unless the user set one (--max-time, exploration.max_time > 0): the explorer
+        # ends by itself (done, no_progress, stuck). The tree runner's limit is only a backstop
+        # past the explorer's own, for a custom tree that never checks it.
+        limit = max_time if max_time is not None else config.exploration.time_limit
+        limit = limit if limit is not None and limit > 0 else None
         result = run_tree(ctx, Path(tree) if tree else default_tree("build"), quiet=quiet, stream=stream,
-                          max_time=limit * 1.25 + 120.0, hooks=list(hooks) + factory.mission_hooks(ctx),
-                          context_hooks=context_hooks, on_interrupt=save_build)
+                          max_time=None if limit is None else limit + 120.0,
+                          hooks=list(hooks) + factory.mission_hooks(ctx), context_hooks=context_hooks,
+                          on_interrupt=save_build)
+        if result.reason == "time limit" and ctx.explorer is not None and ctx.explorer.status == "exploring":
+            ctx.explorer.status, ctx.explorer.reason = "time_limit", f"time limit of {limit:.0f} s reached"
         if ctx.trajectory is not None:
             ctx.trajectory.close()
         if not site.map_yaml.exists():  # a custom tree that never saved: never lose the map
             save_build(ctx)
         result.summary = build_summary(ctx)
-        result.summary["outcome"] = (
-            "succeeded" if result.succeeded else ("interrupted" if result.interrupted else "failed"))
+        result.summary["outcome"] = build_outcome(result, result.summary["termination"])
         write_json(site.build_json, result.summary)
         return result
     finally:
         factory.release(robot)
+
+
+def build_outcome(result: MissionResult, termination: str) -> str:
+    """``succeeded`` (exploration done), ``incomplete`` (a time limit or the progress guard
+    cut it short: the map is saved but has unexplored border), ``interrupted`` or ``failed``."""
+    if result.interrupted:
+        return "interrupted"
+    if result.succeeded:
+        return "succeeded"
+    return "incomplete" if termination in ("time_limit", "no_progress") else "failed"
 
 
 def run_build(world_path: str | Path, site_dir: str | Path, *, seed: int = 0, max_time: float | None = None,

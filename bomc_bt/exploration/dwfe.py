@@ -25,19 +25,23 @@ metres and its ``frontierCost`` still multiplies it by the resolution; we mirror
 exactly, because it is what makes the baseline favour large far frontiers at 5 cm maps.
 
 Goals that failed (navigation aborted, or no progress for ``progress_timeout`` seconds of
-robot time) go on a :class:`Blacklist`; frontiers near a blacklisted point are skipped by
-both explorers. Keeping that bookkeeping and the time limit here keeps Algorithm 1 in one
+robot time) go on a :class:`~bomc_bt.exploration.blacklist.Blacklist`; frontiers near an
+active entry are skipped by both explorers (entries are re-admitted when the map around
+them changes). Keeping that bookkeeping and the time limit here keeps Algorithm 1 in one
 place; the behaviour that drives the robot only supplies frontiers, pose and elapsed time.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Literal
 
 from bomc_bt.algorithm_params import ExplorationParams
+from bomc_bt.exploration.blacklist import Blacklist
 from bomc_bt.exploration.frontiers import Frontier
+
+__all__ = ["Blacklist", "Choice", "ExplorationParams", "choose_frontier"]
 
 
 @dataclass
@@ -48,31 +52,6 @@ class Choice:
     window: Literal["local", "global", "none"]
     cost: float  # inf when frontier is None
     reason: str
-
-
-@dataclass
-class Blacklist:
-    """Failed goals; frontiers whose nearest cell or centroid is within ``radius`` are skipped.
-
-    Checking both points matters: a frontier that shrinks after a failed attempt moves
-    its centroid, but the unreachable part of it (usually near its nearest cell) stays.
-    """
-
-    radius: float = 0.5
-    points: list[tuple[float, float]] = field(default_factory=list)
-
-    def add(self, xy: tuple[float, float]) -> None:
-        self.points.append((float(xy[0]), float(xy[1])))
-
-    def contains(self, xy: tuple[float, float]) -> bool:
-        x, y = float(xy[0]), float(xy[1])
-        return any(math.hypot(x - px, y - py) <= self.radius for px, py in self.points)
-
-    def filter(self, frontiers: list[Frontier]) -> list[Frontier]:
-        return [f for f in frontiers if not (self.contains(f.nearest) or self.contains(f.centroid))]
-
-    def __len__(self) -> int:
-        return len(self.points)
 
 
 def distance_to(frontier: Frontier, robot_xy: tuple[float, float]) -> float:
@@ -100,9 +79,9 @@ def choose_frontier(frontiers: list[Frontier], robot_xy: tuple[float, float], pa
 
     ``frontiers`` should come from ``find_frontiers`` at ``robot_xy`` with
     ``params.min_size_cells(resolution)``. ``elapsed`` is robot time since exploration
-    started; at ``max_time`` or later the result is a termination.
+    started; at ``max_time`` (when set) or later the result is a termination.
     """
-    if elapsed >= params.max_time:
+    if params.time_limit is not None and elapsed >= params.max_time:
         return Choice(None, "none", math.inf,
                       f"time limit reached ({elapsed:.0f} s >= {params.max_time:.0f} s)")
     candidates = blacklist.filter(frontiers) if blacklist is not None else list(frontiers)

@@ -2,9 +2,20 @@
 
 Frontier search (:mod:`.frontiers`) and the DWFE choice (:mod:`.dwfe`) are pure
 functions of a map; an exploration also remembers things across goals: goals that
-failed (the blacklist), how many failed in a row (a robot that cannot reach anything is
-*stuck*, and stops rather than spinning), the time limit, and why it ended. Keeping that
-here leaves the behaviours thin and lets tests drive an exploration without a tree.
+failed (the :mod:`.blacklist`, whose entries come back when the map around them
+changes), how many failed in a row, the way the robot came (:mod:`.progress`), the
+mapped area over time, and why it ended. Keeping that here leaves the behaviours thin and
+lets tests drive an exploration without a tree.
+
+How an exploration ends (``status``):
+
+* ``done``: no frontier the planner can reach is left (the others may remain as
+  unreachable border, or as goals that failed and may no longer be retried);
+* ``time_limit``: the user's time limit (``--max-time`` or ``exploration.max_time``);
+* ``no_progress``: less than ``min_progress_area`` newly mapped in ``no_progress_time``
+  seconds of robot time (the runaway guard; there is no time limit by default);
+* ``stuck``: goals keep failing without the robot moving, even after it backed out along
+  the way it came ``max_backouts`` times.
 """
 
 from __future__ import annotations
@@ -15,89 +26,164 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from bomc_bt.exploration.dwfe import Blacklist, Choice, ExplorationParams, choose_frontier
+from bomc_bt.exploration.blacklist import Blacklist
+from bomc_bt.exploration.dwfe import Choice, ExplorationParams, choose_frontier
 from bomc_bt.exploration.frontiers import Frontier, find_frontiers
+from bomc_bt.exploration.progress import AreaWatch, Trail
+from bomc_bt.exploration.reachability import Reachability
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.planner import PlannerParams
 
 EXPLORING = "exploring"
 DONE = "done"
-TIME_LIMIT = "time limit"
+TIME_LIMIT = "time_limit"
+NO_PROGRESS = "no_progress"
 STUCK = "stuck"
 
 
 @dataclass
 class Goal:
-    """A frontier chosen as a navigation goal."""
+    """A frontier chosen as a navigation goal, or a back-out point on the way the robot came."""
 
     xy: tuple[float, float]
-    frontier: Frontier
+    frontier: Frontier | None
     window: str
     chosen_at: float
+    backout: bool = False
 
 
 class Explorer:
-    """Chooses frontier goals until none are left, time runs out, or the robot is stuck."""
+    """Chooses frontier goals until none is reachable, a limit is hit, or the robot is stuck.
+
+    ``planner`` (the navigation planner's parameters) enables the planner-reachability
+    filter (``params.planner_reachable``); without it frontiers are reachable through
+    free cells, as explore_lite counts them.
+    """
 
     def __init__(self, params: ExplorationParams, start_time: float, max_time: float | None = None,
-                 max_consecutive_failures: int = 5, clearance: float = 0.35, min_goal_distance: float = 0.6):
+                 max_consecutive_failures: int = 5, clearance: float = 0.35, min_goal_distance: float = 0.6,
+                 planner: PlannerParams | None = None):
         self.params = params
         self.start_time = start_time
-        self.max_time = params.max_time if max_time is None else max_time
+        self.max_time = params.time_limit if max_time is None else (max_time if max_time > 0 else None)
         self.max_consecutive_failures = max_consecutive_failures
         self.clearance = clearance
         self.min_goal_distance = min_goal_distance
-        self.blacklist = Blacklist(params.blacklist_radius)
+        self.planner = planner if params.planner_reachable else None
+        self.blacklist = Blacklist.for_params(params)
         self.status = EXPLORING
         self.reason = ""
         self.goals = 0
         self.failures = 0
+        self.backouts = 0
         self.consecutive_failures = 0
         self.last_choice: Choice | None = None
         self._streak_start: tuple[float, float] | None = None
+        self._streak_backouts = 0
+        self._backout_due = False
         self.frontiers: list[Frontier] = []
+        self.unreachable: list[Frontier] = []
+        self.area = AreaWatch(params.no_progress_time, params.min_progress_area, start_time)
+        self.trail = Trail()
 
     def time_up(self, now: float) -> bool:
         return self.max_time is not None and now - self.start_time >= self.max_time
 
-    def next_goal(self, grid: OccupancyGrid, robot_xy: tuple[float, float], now: float) -> Goal | None:
-        """The next frontier to drive to, or None with :attr:`status` saying why not."""
+    def observe(self, robot_xy: tuple[float, float] | None, now: float, area: float | None = None) -> None:
+        """The robot's position and (when known) the mapped area at ``now``; called every tick."""
+        if robot_xy is not None:
+            self.trail.add(robot_xy)
+        if area is not None and self.area.update(area, now):
+            self._streak_backouts = 0  # new map: back-outs are allowed again
+
+    def limit_reached(self, now: float) -> bool:
+        """Whether the time limit or the progress guard ends the exploration (sets the status)."""
+        if self.status != EXPLORING:
+            return True
         if self.time_up(now):
-            return self._finish(TIME_LIMIT, f"time limit of {self.max_time:.0f} s reached")
-        min_cells = self.params.min_size_cells(grid.resolution)
-        self.frontiers = find_frontiers(grid, robot_xy, min_size=min_cells)
-        distance = obstacle_distance(grid)
-        targets = {id(f): frontier_target(grid, f, distance, self.clearance) for f in self.frontiers}
+            self._finish(TIME_LIMIT, f"time limit of {self.max_time:.0f} s reached")
+        elif self.area.stalled(now):
+            self._finish(NO_PROGRESS, f"less than {self.params.min_progress_area:g} m² newly mapped in "
+                                      f"{self.params.no_progress_time:.0f} s")
+        return self.status != EXPLORING
+
+    def next_goal(self, grid: OccupancyGrid, robot_xy: tuple[float, float], now: float) -> Goal | None:
+        """The next frontier (or back-out point) to drive to, or None with :attr:`status` saying why not."""
+        self.observe(robot_xy, now, grid.free_area())
+        if self.limit_reached(now):
+            return None
+        reach = Reachability(grid, self.planner, robot_xy) if self.planner is not None else None
+        if self._backout_due:
+            self._backout_due = False
+            goal = self._backout(robot_xy, now, reach)
+            if goal is not None:
+                return goal
+        self.blacklist.readmit(grid, robot_xy)
+        candidates = self._candidates(grid, robot_xy, reach)
+        targets = {id(f): xy for f, xy in candidates}
         # A frontier whose best target is where the robot already stands (the blind sector
         # behind a 220-degree lidar) is mapped by the turn towards any other goal.
-        far = [f for f in self.frontiers
-               if math.dist(targets[id(f)], robot_xy) >= self.min_goal_distance]
+        far = [f for f, xy in candidates if math.dist(xy, robot_xy) >= self.min_goal_distance]
         choice = choose_frontier(far, robot_xy, self.params, self.blacklist)
         self.last_choice = choice
         if choice.frontier is None:
-            return self._finish(DONE, choice.reason or "no frontiers left")
+            unreachable = f"; {len(self.unreachable)} more the planner cannot reach" if self.unreachable else ""
+            return self._finish(DONE, (choice.reason or "no frontiers left") + unreachable)
         self.goals += 1
         return Goal(targets[id(choice.frontier)], choice.frontier, choice.window, now)
 
-    def goal_reached(self, goal: Goal | None = None, still_open: bool = False) -> None:
+    def _candidates(self, grid: OccupancyGrid, robot_xy: tuple[float, float],
+                    reach: Reachability | None) -> list[tuple[Frontier, tuple[float, float]]]:
+        """Frontiers the robot can be driven to, each with its goal point; sets
+        :attr:`frontiers` (those) and :attr:`unreachable` (the rest)."""
+        found = find_frontiers(grid, robot_xy, min_size=self.params.min_size_cells(grid.resolution))
+        distance = obstacle_distance(grid)
+        if reach is None:
+            self.frontiers, self.unreachable = found, []
+            return [(f, frontier_target(grid, f, distance, self.clearance)) for f in found]
+        reachable, self.unreachable = reach.split(found)
+        self.frontiers = [f for f, _ in reachable]
+        return [(f, frontier_target(grid, f, distance, self.clearance, ok)) for f, ok in reachable]
+
+    def _backout(self, robot_xy, now: float, reach: Reachability | None) -> Goal | None:
+        accept = reach.contains if reach is not None else None
+        xy = self.trail.back(robot_xy, self.params.backout_distance, accept)
+        if xy is None:
+            self._streak_backouts = self.params.max_backouts  # nowhere to back out to
+            return None
+        self.backouts += 1
+        self._streak_backouts += 1
+        return Goal(xy, None, "backout", now, backout=True)
+
+    def goal_reached(self, goal: Goal | None = None, still_open: bool = False,
+                     grid: OccupancyGrid | None = None, robot_xy: tuple[float, float] | None = None) -> None:
         """A goal was reached; one reached but still unmapped (e.g. it looks into a glass
         wall or an unreachable pocket) is not chosen again."""
         self.consecutive_failures = 0
+        self._streak_start = None
+        if goal is not None and goal.backout:
+            return
+        self._streak_backouts = 0
         if goal is not None and still_open:
-            self._blacklist(goal)
+            self._blacklist(goal, grid, robot_xy, permanent=True)
 
     def goal_failed(self, goal: Goal, why: str, robot_xy: tuple[float, float] | None = None,
-                    now: float | None = None) -> None:
-        """Blacklist an unreachable goal; many failures in a row *without moving* is stuck.
+                    now: float | None = None, grid: OccupancyGrid | None = None) -> None:
+        """Blacklist an unreachable goal; failing again and again *without moving* first
+        backs the robot out along the way it came, and only then is stuck.
 
         Failures alone are not enough: near the end of an exploration the frontiers left
         are often shadows behind furniture that no goal reaches, and those are simply
         blacklisted until none remain ("done"). A robot that fails goal after goal while
-        staying where it is, though, cannot get anywhere: that is "stuck".
+        staying where it is, though, may be wedged or facing a blocked corridor: after
+        the second such failure it drives back ``backout_distance`` along its trail and
+        replans from there. Only when that did not help ``max_backouts`` times is it stuck.
         """
-        self._blacklist(goal)
-        self.failures += 1
-        if now is not None and now - goal.chosen_at < 2.0:
-            return  # refused at once (no path, goal in a wall): a bad goal, not a stuck robot
+        if not goal.backout:
+            self._blacklist(goal, grid, robot_xy)
+            self.failures += 1
+            if now is not None and now - goal.chosen_at < 2.0:
+                return  # refused at once (no path, goal in a wall): a bad goal, not a stuck robot
         self.consecutive_failures += 1
         if robot_xy is not None:
             if self.consecutive_failures == 1 or self._streak_start is None:
@@ -105,14 +191,34 @@ class Explorer:
             moved = math.dist(self._streak_start, robot_xy)
         else:
             moved = 0.0
-        if self.consecutive_failures >= self.max_consecutive_failures and moved < 1.0:
-            self._finish(STUCK, f"{self.consecutive_failures} goals failed in a row without moving (last: {why})")
+        if moved >= 1.0:
+            return
+        if self._streak_backouts < self.params.max_backouts:
+            self._backout_due = self.consecutive_failures >= 2
+        elif self.consecutive_failures >= self.max_consecutive_failures:
+            self._finish(STUCK, f"{self.consecutive_failures} goals failed in a row without moving, after "
+                                f"{self._streak_backouts} back-out(s) (last: {why})")
 
-    def _blacklist(self, goal: Goal) -> None:
+    def border(self, grid: OccupancyGrid, robot_xy: tuple[float, float] | None) -> dict:
+        """The unknown border left: frontier count and length, reachable and not, and how
+        many of the reachable ones are blacklisted (the build record's ``frontiers_left``)."""
+        if robot_xy is None:
+            return {}
+        found = find_frontiers(grid, robot_xy, min_size=self.params.min_size_cells(grid.resolution))
+        if self.planner is not None:
+            reachable, unreachable = Reachability(grid, self.planner, robot_xy).split(found)
+            reach = [f for f, _ in reachable]
+        else:
+            reach, unreachable = found, []
+        skipped = len(reach) - len(self.blacklist.filter(reach))
+        return {"reachable": len(reach), "reachable_m": round(sum(f.length for f in reach), 2),
+                "unreachable": len(unreachable), "unreachable_m": round(sum(f.length for f in unreachable), 2),
+                "blacklisted": skipped, "readmitted": self.blacklist.readmitted}
+
+    def _blacklist(self, goal: Goal, grid: OccupancyGrid | None, robot_xy, permanent: bool = False) -> None:
         # The target and the frontier's centroid: the blacklist matches frontiers by their
         # nearest cell or centroid, and a target may lie away from both on a long frontier.
-        self.blacklist.add(goal.xy)
-        self.blacklist.add(goal.frontier.centroid)
+        self.blacklist.add(goal.xy, goal.frontier.centroid, grid=grid, robot_xy=robot_xy, permanent=permanent)
 
     def _finish(self, status: str, reason: str) -> None:
         self.status = status
@@ -126,16 +232,18 @@ def obstacle_distance(grid: OccupancyGrid) -> np.ndarray:
 
 
 def frontier_target(grid: OccupancyGrid, frontier: Frontier, distance: np.ndarray | None = None,
-                    clearance: float = 0.0) -> tuple[float, float]:
+                    clearance: float = 0.0, usable: np.ndarray | None = None) -> tuple[float, float]:
     """The frontier cell closest to the cluster's centroid among those the robot fits on.
 
     The centroid of a curved frontier can lie in unknown space or inside a wall; a cell
     of the frontier is a known free cell on the boundary, so the robot sees into the
     unknown from there. Cells nearer a wall than ``clearance`` would be refused by the
     planner as lethal, so they are used only when the whole frontier hugs a wall (then
-    the roomiest cell is taken).
+    the roomiest cell is taken). ``usable`` (a bool per cell) restricts the choice to the
+    cells the planner can drive to (:class:`.reachability.Reachability`).
     """
-    rows, cols = frontier.cells[:, 0], frontier.cells[:, 1]
+    cells = frontier.cells if usable is None or not usable.any() else frontier.cells[usable]
+    rows, cols = cells[:, 0], cells[:, 1]
     xs, ys = grid.cell_to_world(rows, cols)
     cx, cy = frontier.centroid
     d2 = (xs - cx) ** 2 + (ys - cy) ** 2
@@ -148,6 +256,8 @@ def frontier_target(grid: OccupancyGrid, frontier: Frontier, distance: np.ndarra
         i = int(np.argmin(np.where(fits, d2, np.inf)))
         return float(xs[i]), float(ys[i])
     i = int(np.argmin(d2))
+    if usable is not None:
+        return float(xs[i]), float(ys[i])  # within the planner's goal tolerance of its reachable area
     return standoff(grid, distance, rows[i], cols[i], clearance, search=1.0) or (float(xs[i]), float(ys[i]))
 
 

@@ -20,7 +20,7 @@ from behaviours.explore import (
     StartExploration,
     StartExplorationParams,
 )
-from bomc_bt.exploration.explorer import DONE, EXPLORING, STUCK, TIME_LIMIT
+from bomc_bt.exploration.explorer import DONE, EXPLORING, NO_PROGRESS, STUCK, TIME_LIMIT
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import Status as Nav
 
@@ -106,14 +106,27 @@ def test_drive_to_frontier_failure_is_written_for_blacklist_goal(build, robot):
     assert build.explorer.blacklist.points  # the frontier is skipped from now on
 
 
-def test_drive_to_frontier_ends_successfully_when_time_is_up(build, robot):
+def test_drive_to_frontier_ends_the_loop_when_the_users_time_limit_is_up(ctx, robot):
+    ctx.mission, ctx.max_time = "build", 60.0  # bomc build --max-time 60
+    tick(StartExploration("Start", StartExplorationParams(), ctx))
+    leaf = drive(ctx)
+    tick(leaf)
+    robot.advance(61.0)
+    assert tick(leaf) == Status.SUCCESS and ctx.explorer.status == TIME_LIMIT
+    assert robot.last.status() is Nav.RUNNING  # the next goal pre-empts it; nothing was cancelled
+    assert tick(ExplorationOver("Over", None, ctx)) == Status.SUCCESS
+    assert tick(ExplorationOutcome("Outcome", None, ctx)) == Status.FAILURE  # cut short: not "done"
+
+
+def test_without_a_time_limit_only_the_progress_guard_ends_a_drive(build, robot):
+    assert build.explorer.max_time is None
     leaf = drive(build)
     tick(leaf)
-    robot.advance(build.explorer.max_time + 1.0)
-    assert tick(leaf) == Status.SUCCESS and build.explorer.status == TIME_LIMIT
-    assert robot.last.status() is Nav.RUNNING  # the next goal pre-empts it; nothing was cancelled
-    assert tick(ExplorationOver("Over", None, build)) == Status.SUCCESS
-    assert tick(ExplorationOutcome("Outcome", None, build)) == Status.SUCCESS
+    robot.advance(500.0)  # nothing newly mapped, but not for no_progress_time (600 s) yet
+    assert tick(leaf) == Status.RUNNING and build.explorer.status == EXPLORING
+    robot.advance(200.0)
+    assert tick(leaf) == Status.SUCCESS and build.explorer.status == NO_PROGRESS
+    assert tick(ExplorationOutcome("Outcome", None, build)) == Status.FAILURE
 
 
 def test_drive_to_frontier_halted_cancels_its_goal(build, robot):
@@ -123,7 +136,11 @@ def test_drive_to_frontier_halted_cancels_its_goal(build, robot):
     assert robot.last.status() is Nav.CANCELLED
 
 
-def test_a_stuck_explorer_ends_the_loop_and_fails_the_build(build, robot):
+def test_a_stuck_explorer_ends_the_loop_and_fails_the_build(ctx, robot):
+    ctx.mission = "build"
+    ctx.config.exploration.max_backouts = 0  # no back-out allowed: stuck once goals keep failing in place
+    tick(StartExploration("Start", StartExplorationParams(max_consecutive_failures=2), ctx))
+    build = ctx
     tick(ChooseFrontier("Choose", None, build))
     for _ in range(2):  # the same goal fails twice without the robot moving
         leaf = DriveToFrontier("Drive", DriveToFrontierParams(), build)
