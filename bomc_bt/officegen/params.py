@@ -16,16 +16,15 @@ import math
 from dataclasses import dataclass, fields
 
 from bomc_bt.errors import BomcError
+from bomc_bt.worldgen import DEFAULT_SIZES
 
-# Box extents (x along the object's front, y depth, z height), metres.
+# Box extents (x along the object's front, y depth, z height), metres: the generic ones of
+# bomc_bt.worldgen, with an office's own doors, tables, desks, sofas and screens.
 SIZES: dict[str, tuple[float, float, float]] = {
+    **DEFAULT_SIZES,
     "door": (0.9, 0.05, 2.0),
     "table": (1.6, 0.8, 0.75),  # meeting / open-plan table
     "desk": (1.2, 0.6, 0.75),  # a desk is scored as a "table" (the category the paper maps)
-    "chair": (0.5, 0.5, 0.9),
-    "trash bin": (0.4, 0.4, 0.6),
-    "cabinet": (0.9, 0.5, 1.2),
-    "potted plant": (0.4, 0.4, 0.9),
     "sofa": (1.8, 0.85, 0.8),
     "television": (1.0, 0.12, 0.6),
 }
