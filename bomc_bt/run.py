@@ -193,10 +193,10 @@ def run_build_mission(factory: RobotFactory, site_dir: str | Path, *, config: Co
         result = run_tree(ctx, Path(tree) if tree else default_tree("build"), quiet=quiet, stream=stream,
                           max_time=limit * 1.25 + 120.0, hooks=list(hooks) + factory.mission_hooks(ctx),
                           context_hooks=context_hooks, on_interrupt=save_build)
-        if ctx.trajectory is not None:
-            ctx.trajectory.close()
         if not site.map_yaml.exists():  # a custom tree that never saved: never lose the map
             save_build(ctx)
+        if ctx.trajectory is not None:
+            ctx.trajectory.close()
         result.summary = build_summary(ctx)
         result.summary["outcome"] = (
             "succeeded" if result.succeeded else ("interrupted" if result.interrupted else "failed"))

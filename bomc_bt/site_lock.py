@@ -89,7 +89,7 @@ class SiteLock:
 
 def _command_line() -> str:
     argv = list(sys.argv)
-    if argv and argv[0].endswith(("cli.py", "__main__.py", "/bomc")):
+    if argv and (argv[0].endswith("bomc_bt/cli.py") or Path(argv[0]).name == "bomc"):
         argv[0] = "bomc"
     return " ".join(shlex.quote(a) for a in argv)
 
