@@ -43,6 +43,8 @@ def parser() -> argparse.ArgumentParser:
     b.add_argument("--max-time", type=float, default=None, help="simulated seconds (default: until done)")
     b.add_argument("--explorer", choices=["dwfe", "baseline"], default=None)
     b.add_argument("--tree", default=None, help="tree file (default trees/build.yaml)")
+    b.add_argument("--new-map", action="store_true",
+                   help="re-build a site that has an object graph: archive the graph with its map (README: Sites)")
     b.add_argument("--viewer", action="store_true", help="serve the live viewer on 127.0.0.1")
     b.add_argument("--viewer-port", type=int, default=8765)
     b.add_argument("--quiet", action="store_true", help="no live tree view")
@@ -202,7 +204,7 @@ def _mission(args) -> int:
             # A ROS build has nothing seeded: its build record keeps seed 0.
             result = run.run_build_mission(robots, args.site, config=config, seed=0 if args.ros else args.seed,
                                            max_time=args.max_time, explorer=args.explorer, tree=args.tree,
-                                           quiet=args.quiet, context_hooks=hooks)
+                                           quiet=args.quiet, context_hooks=hooks, new_map=args.new_map)
         else:
             result = run.run_monitor_mission(robots, args.site, args.session, config=config, seed=args.seed,
                                              tree=args.tree, resume=args.resume, quiet=args.quiet,
@@ -210,6 +212,7 @@ def _mission(args) -> int:
     finally:
         _close(server)
     if args.command == "build":
+        print(result.site_note, file=sys.stderr)
         return _report_build(result, args.site)
     return _report_monitor(result, args.session)
 

@@ -20,7 +20,7 @@ from bomc_bt.site import Site, write_json
 
 # Files of ours that a demo may clear from its site before starting again.
 _OWN = ("map.yaml", "map.pgm", "trajectory.csv", "build.json", "plan.json", "site.db", "site.db-wal",
-        "site.db-shm", "tables.md", "tables.json")
+        "site.db-shm", "tables.md", "tables.json", "current")
 
 
 def shared_dir() -> Path:
@@ -40,6 +40,7 @@ def reset_site(site: Site) -> None:
     for name in _OWN:
         (site.root / name).unlink(missing_ok=True)
     shutil.rmtree(site.root / "sessions", ignore_errors=True)
+    shutil.rmtree(site.root / "generations", ignore_errors=True)
 
 
 def run_demo(world: str | None, site_dir: str, *, seed: int, sessions: int, config: Config, quiet: bool,

@@ -39,7 +39,7 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
     site = Site(Path(site_dir))
     if not site.store_path.exists():
         raise BomcError("no object graph here: run `bomc monitor` first", site.store_path)
-    with SiteStore(site.store_path) as store:
+    with SiteStore(site.store_path, readonly=True) as store:
         recorded = {s.number: s for s in store.sessions()}
         if session not in recorded:
             known = ", ".join(map(str, sorted(recorded))) or "none"

@@ -26,7 +26,7 @@ def evaluate_session(world: str | Path | World, site_dir: str | Path, session: i
     site = Site(Path(site_dir))
     if not site.store_path.exists():
         raise BomcError("no object graph here: run `bomc monitor` first", site.store_path)
-    store = SiteStore(site.store_path)
+    store = SiteStore(site.store_path, readonly=True)
     try:
         recorded = {s.number: s for s in store.sessions()}
         if session not in recorded:

@@ -40,6 +40,7 @@ class MissionResult:
     summary: dict[str, Any] = field(default_factory=dict)
     interrupted: bool = False
     context: MissionContext | None = None
+    site_note: str = ""  # where a build's map went (bomc_bt.generations): current, or kept aside
 
 
 def default_tree(name: str) -> Path:
@@ -162,19 +163,31 @@ def perception_base_dir(config: Config) -> Path:
 def run_build_mission(factory: RobotFactory, site_dir: str | Path, *, config: Config | None = None,
                       seed: int = 0, max_time: float | None = None, explorer: str | None = None,
                       tree: str | Path | None = None, quiet: bool = True, stream: TextIO = sys.stdout,
-                      hooks: list[Callable] = (), context_hooks: list[Callable] = ()) -> MissionResult:
-    """Explore from the robot's start pose with the build tree; the map is always saved."""
+                      hooks: list[Callable] = (), context_hooks: list[Callable] = (),
+                      new_map: bool = False) -> MissionResult:
+    """Explore from the robot's start pose with the build tree; the map is always saved.
+
+    It is saved into a new map generation, made current only when the build succeeds
+    (:mod:`bomc_bt.generations`); ``new_map`` allows that over a site that has a graph.
+    """
     from bomc_bt.build_record import build_summary, save_build
+    from bomc_bt.generations import begin_build
+    from bomc_bt.mission_trees import check_mission_tree
     from bomc_bt.site import write_json
 
+    if max_time is not None and not 0.0 < max_time < 1e9:
+        raise BomcError(f"must be a positive number of seconds, got {max_time}", None, "--max-time")
     factory.connect()
     config = config or factory.default_config()
     if explorer:
         config.exploration.explorer = explorer
     factory.prepare(config)
-    site = Site(Path(site_dir)).create()
-    robot = factory.build_robot(config)
+    check_mission_tree(Path(tree) if tree else default_tree("build"), "build")
+    build = begin_build(Path(site_dir), new_map=new_map)  # locked; writes only into a new generation
+    site = build.site
+    robot = None
     try:
+        robot = factory.build_robot(config)
         ctx = MissionContext(robot=robot, config=config, site=site, mission="build", seed=seed, max_time=max_time)
         # No limit unless the user set one (--max-time, exploration.max_time > 0): the explorer
         # ends by itself (done, no_progress, stuck). The tree runner's limit is only a backstop
@@ -187,16 +200,20 @@ def run_build_mission(factory: RobotFactory, site_dir: str | Path, *, config: Co
                           on_interrupt=save_build)
         if result.reason == "time limit" and ctx.explorer is not None and ctx.explorer.status == "exploring":
             ctx.explorer.status, ctx.explorer.reason = "time_limit", f"time limit of {limit:.0f} s reached"
-        if ctx.trajectory is not None:
-            ctx.trajectory.close()
         if not site.map_yaml.exists():  # a custom tree that never saved: never lose the map
             save_build(ctx)
+        if ctx.trajectory is not None:
+            ctx.trajectory.close()
         result.summary = build_summary(ctx)
         result.summary["outcome"] = build_outcome(result, result.summary["termination"])
         write_json(site.build_json, result.summary)
+        build.finish(result.succeeded)
+        result.site_note = build.note()
         return result
     finally:
-        factory.release(robot)
+        if robot is not None:
+            factory.release(robot)
+        build.close()
 
 
 def build_outcome(result: MissionResult, termination: str) -> str:
@@ -212,13 +229,13 @@ def build_outcome(result: MissionResult, termination: str) -> str:
 def run_build(world_path: str | Path, site_dir: str | Path, *, seed: int = 0, max_time: float | None = None,
               explorer: str | None = None, tree: str | Path | None = None, config: Config | None = None,
               quiet: bool = True, stream: TextIO = sys.stdout, hooks: list[Callable] = (),
-              context_hooks: list[Callable] = ()) -> MissionResult:
+              context_hooks: list[Callable] = (), new_map: bool = False) -> MissionResult:
     """Explore the world from its start pose with the build tree in the simulator."""
     from bomc_bt.sim.factory import SimRobots
 
     return run_build_mission(SimRobots(world_path, seed), site_dir, config=config, seed=seed, max_time=max_time,
                              explorer=explorer, tree=tree, quiet=quiet, stream=stream, hooks=hooks,
-                             context_hooks=context_hooks)
+                             context_hooks=context_hooks, new_map=new_map)
 
 
 # -- monitor -------------------------------------------------------------------------------
@@ -258,7 +275,9 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
                         hooks: list[Callable] = (), context_hooks: list[Callable] = (),
                         max_time: float = 4 * 3600.0) -> MissionResult:
     """One monitoring pass of session ``session`` that updates the site's object graph."""
+    from bomc_bt.generations import lock_for_monitor
     from bomc_bt.grid import load_map
+    from bomc_bt.mission_trees import check_mission_tree
     from bomc_bt.monitoring import Perception
     from bomc_bt.report import session_summary
     from bomc_bt.store import SiteStore
@@ -267,15 +286,17 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         raise BomcError("must be 1 or more", None, "--session")
     config = config or factory.default_config()
     factory.prepare(config)
-    site = Site(Path(site_dir))
-    site.require_build()
-    grid = load_map(site.map_yaml)
-    dock = factory.dock(site)
-    categories = factory.categories(config)
-    factory.connect()
-    store = SiteStore(site.store_path)
-    robot = None
+    check_mission_tree(Path(tree) if tree else default_tree("monitor"), "monitor")
+    lock = lock_for_monitor(Path(site_dir))  # one writer for the whole pass (bomc_bt.site_lock)
+    store = robot = None
     try:
+        site = Site(Path(site_dir))  # after the lock: the current generation, read once
+        site.require_build()
+        grid = load_map(site.map_yaml)
+        dock = factory.dock(site)
+        categories = factory.categories(config)
+        factory.connect()
+        store = SiteStore(site.store_path)
         check_session(store, session, resume, site.store_path)
         graph = store.load_graph(config.association)
         robot = factory.monitor_robot(config, session)
@@ -298,7 +319,9 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
     finally:
         if robot is not None:
             factory.release(robot)
-        store.close()
+        if store is not None:
+            store.close()
+        lock.release()
 
 
 def _pass_interrupted(ctx: MissionContext) -> None:

@@ -8,6 +8,14 @@ Layout (CONTRACTS.md section 3 fixes the first three entries)::
     site.db                  object graph, events and sessions (bomc_bt.store)
     plan.json                the traversal plan of the last monitor pass
     sessions/<n>/            per-session report (JSON + Markdown) and semantic map PNG
+    current                  the number of the current map generation (absent on old sites)
+    generations/<n>/         one build each: map, trajectory, build.json (bomc_bt.generations)
+    .lock                    the writer's lock (bomc_bt.site_lock)
+
+The map, trajectory and build record are *read* from the current generation when the
+site has a ``current`` pointer (it is read once, when the :class:`Site` is made, so one
+reader never mixes two generations), else from the top level (a site built before
+generations existed). The top-level copies are for outside scripts (CONTRACTS.md 3).
 
 Files are written so that a crash loses nothing already observed: the trajectory is an
 append-only CSV flushed row by row, JSON files are replaced atomically.
@@ -25,28 +33,46 @@ from typing import Any, TextIO
 from bomc_bt.atomic import atomic_write
 from bomc_bt.errors import BomcError
 
+POINTER = "current"
+GENERATIONS = "generations"
+
 
 class _SiteFile:
-    """A read-only attribute of :class:`Site`: the path of one fixed file in the site directory."""
+    """A read-only attribute of :class:`Site`: the path of one fixed file in the site directory.
 
-    def __init__(self, name: str):
+    ``of_build`` files belong to a map generation: they live in :attr:`Site.data`.
+    """
+
+    def __init__(self, name: str, of_build: bool = False):
         self.name = name
+        self.of_build = of_build
 
     def __get__(self, site: Site, owner: type | None = None) -> Path:
-        return site.root / self.name
+        return (site.data if self.of_build and site.data is not None else site.root) / self.name
 
 
 @dataclass(frozen=True)
 class Site:
-    """Paths inside one site directory (the layout in the module docstring)."""
+    """Paths inside one site directory (the layout in the module docstring).
+
+    ``data`` is where the build's files are: the current generation, resolved once here,
+    or the top level of a site without generations; a build passes its new generation.
+    """
 
     root: Path
+    data: Path | None = None  # resolved in __post_init__ when not given
 
-    map_yaml = _SiteFile("map.yaml")
-    trajectory_csv = _SiteFile("trajectory.csv")
-    build_json = _SiteFile("build.json")
+    map_yaml = _SiteFile("map.yaml", of_build=True)
+    trajectory_csv = _SiteFile("trajectory.csv", of_build=True)
+    build_json = _SiteFile("build.json", of_build=True)
     store_path = _SiteFile("site.db")
     plan_json = _SiteFile("plan.json")
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "root", Path(self.root))
+        if self.data is None:
+            number = current_generation(self.root)
+            object.__setattr__(self, "data", self.root if number is None else generation_dir(self.root, number))
 
     def session_dir(self, number: int) -> Path:
         return self.root / "sessions" / str(number)
@@ -63,6 +89,27 @@ class Site:
         for path in (self.map_yaml, self.trajectory_csv):
             if not path.exists():
                 raise BomcError("missing: run `bomc build` for this site first", path)
+
+
+def generation_dir(root: Path, number: int) -> Path:
+    return Path(root) / GENERATIONS / str(number)
+
+
+def current_generation(root: Path) -> int | None:
+    """The number in ``root/current``, or None on a site without generations."""
+    pointer = Path(root) / POINTER
+    try:
+        text = pointer.read_text()
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BomcError(f"unreadable generation pointer ({type(exc).__name__})", pointer) from None
+    if not text.strip().isdigit() or len(text.strip()) > 9 or int(text) < 1:
+        raise BomcError(f"not a generation number: {text[:20]!r}", pointer)
+    number = int(text)
+    if not generation_dir(root, number).is_dir():
+        raise BomcError(f"generation {number} is missing ({generation_dir(root, number)})", pointer)
+    return number
 
 
 def write_json(path: Path, payload: Any) -> None:

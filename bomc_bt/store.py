@@ -3,7 +3,9 @@
 One SQLite file (stdlib ``sqlite3``) per site, because a monitor pass must survive being
 killed: every frame's events and changed nodes are written in ONE transaction, so a kill
 loses at most the frame in flight and a resumed pass starts from a consistent graph.
-WAL journaling keeps readers (``bomc evaluate``, a viewer) off the writer's back.
+WAL journaling keeps readers (``bomc evaluate``, a viewer) off the writer's back; they
+open the store with ``readonly=True`` and change no byte of the site
+(:mod:`bomc_bt.store_schema`, which also holds the schema and its upgrade).
 
 Tables:
 
@@ -41,30 +43,10 @@ import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
+from bomc_bt.store_schema import SCHEMA, connect, open_schema
 
-SCHEMA_VERSION = 2
-_FOOTPRINT = ("fx0", "fy0", "fx1", "fy1")
 FILENAME = "site.db"
-
-_SCHEMA = """
-CREATE TABLE schema_version (version INTEGER NOT NULL);
-CREATE TABLE nodes (
-    id INTEGER PRIMARY KEY, category TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL,
-    confidence REAL NOT NULL, first_session INTEGER NOT NULL, last_session INTEGER NOT NULL,
-    state TEXT NOT NULL, observations INTEGER NOT NULL, misses INTEGER NOT NULL,
-    fx0 REAL, fy0 REAL, fx1 REAL, fy1 REAL);
-CREATE TABLE node_history (
-    seq INTEGER PRIMARY KEY AUTOINCREMENT, id INTEGER NOT NULL, session INTEGER NOT NULL,
-    stamp REAL NOT NULL, kind TEXT NOT NULL, category TEXT NOT NULL,
-    x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, confidence REAL NOT NULL,
-    px REAL, py REAL, pz REAL);
-CREATE INDEX node_history_session ON node_history (session);
-CREATE TABLE sessions (
-    number INTEGER PRIMARY KEY, started_stamp REAL, started_wall TEXT NOT NULL,
-    ended_stamp REAL, ended_wall TEXT, outcome TEXT, counts TEXT, report TEXT, info TEXT);
-CREATE TABLE progress (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-"""
-_TABLES = {"schema_version", "nodes", "node_history", "sessions", "progress"}
+_SCHEMA = SCHEMA  # the schema text, for tests that write old versions of it
 
 
 @dataclass
@@ -89,23 +71,23 @@ class SessionRecord:
 class SiteStore:
     """The persistent graph of one site. ``path`` is ``<site>/site.db`` or the site folder."""
 
-    def __init__(self, path: str | Path, busy_timeout: float = 2.0):
+    def __init__(self, path: str | Path, busy_timeout: float = 2.0, readonly: bool = False):
         path = Path(path)
         if path.is_dir():
             path = path / FILENAME
         self.path = path
+        self.readonly = readonly
         self._lock = threading.Lock()
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise BomcError(f"cannot create the site folder ({exc.strerror})", path) from None
+        if not readonly:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise BomcError(f"cannot create the site folder ({exc.strerror})", path) from None
         with self._errors("open"):
-            self._db = sqlite3.connect(
-                str(path), timeout=busy_timeout, isolation_level=None, check_same_thread=False
-            )
+            self._db = connect(path, busy_timeout, readonly)
         try:
             with self._errors("open"):
-                self._open()
+                open_schema(self._db, path, readonly)
         except BomcError:
             self._db.close()
             raise
@@ -140,42 +122,6 @@ class SiteStore:
     def _query(self, sql: str, args: tuple = ()) -> list[tuple]:
         with self._lock, self._errors("read"):
             return self._db.execute(sql, args).fetchall()
-
-    def _open(self) -> None:
-        tables = {r[0] for r in self._db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
-        tables.discard("sqlite_sequence")
-        if not tables:
-            self._db.execute("PRAGMA journal_mode=WAL")
-            script = f"BEGIN IMMEDIATE;{_SCHEMA}INSERT INTO schema_version VALUES ({SCHEMA_VERSION});COMMIT;"
-            try:
-                self._db.executescript(script)
-            except BaseException:
-                if self._db.in_transaction:
-                    self._db.execute("ROLLBACK")
-                raise
-            return
-        if not tables >= _TABLES:
-            missing = ", ".join(sorted(_TABLES - tables))
-            raise BomcError(f"not a bomc site store (missing tables: {missing})", self.path)
-        rows = self._db.execute("SELECT version FROM schema_version").fetchall()
-        if len(rows) == 1 and rows[0][0] == 1:
-            self._upgrade_from_1()
-            rows = [(SCHEMA_VERSION,)]
-        if len(rows) != 1 or rows[0][0] != SCHEMA_VERSION:
-            found = rows[0][0] if len(rows) == 1 else "none"
-            raise BomcError(f"unsupported site store schema version {found} (expected {SCHEMA_VERSION})",
-                            self.path, "schema_version")
-        self._db.execute("PRAGMA journal_mode=WAL")
-
-    def _upgrade_from_1(self) -> None:
-        """Version 1 had no node footprints: add the columns (NULL = unknown), nothing else."""
-        script = "BEGIN IMMEDIATE;" + "".join(f"ALTER TABLE nodes ADD COLUMN {c} REAL;" for c in _FOOTPRINT)
-        try:
-            self._db.executescript(script + f"UPDATE schema_version SET version = {SCHEMA_VERSION};COMMIT;")
-        except BaseException:
-            if self._db.in_transaction:
-                self._db.execute("ROLLBACK")
-            raise
 
     def close(self) -> None:
         with self._lock:

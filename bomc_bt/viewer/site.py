@@ -31,7 +31,7 @@ class SiteView:
         self.events: dict[int, list[Event]] = {}
         self.records = []
         if self.site.store_path.exists():
-            store = SiteStore(self.site.store_path)
+            store = SiteStore(self.site.store_path, readonly=True)
             try:
                 self.records = store.sessions()
                 for rec in self.records:
