@@ -186,6 +186,10 @@ class TraversalParams:
     stop_cost: float = 4.0
     min_gain: float = 0.5  # [m] coverage plan: a stop or heading newly sees at least this squared (a chair)
     path_resolution: float = 0.2  # [m] coverage plan: grid cell of the path-length matrix (pooled planner cells)
+    # [bool] coverage plan: floor the camera sees while driving between stops (facing ahead)
+    # needs no stop; the cover is chosen again with it seen
+    drive_by: bool = True
+    drive_by_step: float = 0.5  # [m] coverage plan: spacing of the views credited along the driven path
     closed_tour: bool = True  # [bool] coverage plan: order the tour from and back to the dock (else an open path)
 
     def __post_init__(self) -> None:
@@ -195,8 +199,9 @@ class TraversalParams:
             raise ValueError("max_two_opt_passes must not be negative")
         if self.plan not in ("coverage", "paper"):
             raise ValueError(f"plan must be coverage or paper, not {self.plan!r}")
-        if not (self.target_step > 0 and self.candidate_step >= self.target_step and self.path_resolution > 0):
-            raise ValueError("need target_step > 0, candidate_step >= target_step and path_resolution > 0")
+        if not (self.target_step > 0 and self.candidate_step >= self.target_step and self.path_resolution > 0
+                and self.drive_by_step > 0):
+            raise ValueError("need target_step, path_resolution, drive_by_step > 0 and candidate_step >= target_step")
         if self.clearance < 0 or self.min_range < 0 or self.shadow < 0 or self.stop_cost < 0 or self.min_gain < 0:
             raise ValueError("clearance, min_range, shadow, stop_cost and min_gain must be >= 0")
         if not 0 < self.hfov_deg <= 360 or self.max_headings < 1:

@@ -39,7 +39,7 @@ from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.path_matrix import path_length_matrix
 from bomc_bt.planner import GridPlanner
-from bomc_bt.sight import Sight, headings_for
+from bomc_bt.sight import Sight, along_paths, headings_for
 from bomc_bt.traversal import TraversalPlan, path_length, two_opt_route
 from bomc_bt.viewpoints import floor_mask
 
@@ -65,18 +65,28 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
     m = max(1, int(round(params.candidate_step / (k * grid.resolution))))
     floor = floor_mask(grid, params.shadow)[::k, ::k]
     places = candidate_places(grid, planner, start, floor.shape, k, m, params.clearance)
-    views = Sight(grid, floor, k, view_range, params.min_range, params.shadow).visible(places)
+    sight = Sight(grid, floor, k, view_range, params.min_range, params.shadow)
+    views = sight.visible(places)
     seeable = np.zeros(floor.size, dtype=bool)
     for v in views:
         seeable[v] = True
     xy = _world(grid, places[:, 0] * k, places[:, 1] * k)
     min_count = max(1, int(math.ceil((params.min_gain / (k * grid.resolution)) ** 2 - 1e-9)))
+    hfov = math.radians(params.hfov_deg)
     chosen, credited = greedy_cover(views, xy, floor.size, start.xy, params.stop_cost, min_count)
-    covered = np.zeros(floor.size, dtype=bool)
+    order, dist = tour_order(planner, start.xy, xy[chosen], params)
+    en_route = np.zeros(floor.size, dtype=bool)
+    if params.drive_by and chosen:
+        # What the camera sees between stops, facing ahead, needs no stop: cover again with
+        # it seen, which drops the stops (and headings) that only looked along corridors.
+        stops = [np.asarray(start.xy, dtype=float)] + [xy[chosen[j]] for j in order]
+        paths = [planner.plan(a, b) for a, b in zip(stops[:-1], stops[1:], strict=True)]
+        en_route[along_paths(sight, paths, params.drive_by_step, hfov)] = True
+        chosen, credited = greedy_cover(views, xy, floor.size, start.xy, params.stop_cost, min_count, en_route)
+        order, dist = tour_order(planner, start.xy, xy[chosen], params)
+    covered = en_route.copy()
     for i in chosen:
         covered[views[i]] = True
-    order, dist = tour_order(planner, start.xy, xy[chosen], params)
-    hfov = math.radians(params.hfov_deg)
     waypoints: list[Pose2D] = []
     stops: list[tuple[float, float]] = []
     at = np.asarray(start.xy, dtype=float)
@@ -134,10 +144,11 @@ def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 
 def greedy_cover(views: list[np.ndarray], xy: np.ndarray, n_targets: int, start_xy, stop_cost: float,
-                 min_count: int) -> tuple[list[int], list[np.ndarray]]:
+                 min_count: int, seen: np.ndarray | None = None) -> tuple[list[int], list[np.ndarray]]:
     """Chosen candidates (in the order picked) and the targets each newly saw.
 
-    Each round takes the candidate with the most targets not yet seen per cost (``stop_cost``
+    Targets in ``seen`` (seen on the way) need no viewpoint. Each round takes the candidate
+    with the most targets not yet seen per cost (``stop_cost``
     plus the straight-line distance to the nearest chosen viewpoint or the start), while
     one still sees ``min_count`` new targets. Gains are kept current through the targets'
     list of the candidates that see them, so a round costs a few vector operations.
@@ -150,8 +161,8 @@ def greedy_cover(views: list[np.ndarray], xy: np.ndarray, n_targets: int, start_
     indices = np.concatenate(views).astype(np.int64) if lens.sum() else np.zeros(0, dtype=np.int64)
     seers = np.repeat(np.arange(n), lens)[np.argsort(indices, kind="stable")]  # by target
     t_ptr = np.concatenate([[0], np.cumsum(np.bincount(indices, minlength=n_targets))])
-    gain = lens.astype(np.float64)
-    covered = np.zeros(n_targets, dtype=bool)
+    covered = np.zeros(n_targets, dtype=bool) if seen is None else seen.astype(bool).copy()
+    gain = (lens - np.bincount(seers[_ranges(t_ptr[:-1][covered], t_ptr[1:][covered])], minlength=n)).astype(float)
     near = np.hypot(xy[:, 0] - start_xy[0], xy[:, 1] - start_xy[1])
     chosen: list[int] = []
     credited: list[np.ndarray] = []

@@ -46,7 +46,8 @@ class Sight:
         keep = (d >= min_range) & (d <= view_range)
         self.di, self.dj, self.d = di.ravel()[keep], dj.ravel()[keep], d[keep]
         # rows grow with y, columns with x (OccupancyGrid's layout)
-        self.ray = np.round(np.arctan2(self.di, self.dj) / (2 * math.pi / rays)).astype(np.int64) % rays
+        self.bearing = np.arctan2(self.di, self.dj)
+        self.ray = np.round(self.bearing / (2 * math.pi / rays)).astype(np.int64) % rays
         # Blockers thickened by one map cell all round, so samples every ray_step (at most
         # three cells) cannot step over a one-cell wall; the margin is what the 1.5-step
         # stop before a target allows for.
@@ -70,8 +71,10 @@ class Sight:
         flat = base[:, None, None] + self._offsets[None, :, :]
         return _first(self._occ.ravel()[flat], self.samples), _first(self._blocked.ravel()[flat], self.samples)
 
-    def visible(self, places: np.ndarray) -> list[np.ndarray]:
-        """For each place (lattice (i, j), shape (K, 2)): flat raster indices of the targets it sees."""
+    def visible(self, places: np.ndarray, headings: np.ndarray | None = None, hfov: float = 2 * math.pi
+                ) -> list[np.ndarray]:
+        """For each place (lattice (i, j), shape (K, 2)): flat raster indices of the targets it
+        sees, all around or, with ``headings`` (K,), within ``hfov`` of each place's heading."""
         out: list[np.ndarray] = []
         h, w = self.floor.shape
         need_clear = self.d - 1.5 * self.step  # occupied: stop short of the target (it may stand by a wall)
@@ -86,6 +89,9 @@ class Sight:
             seen = inside & self.floor[ti, tj]
             seen &= occ[:, self.ray] >= need_clear[None, :]
             seen &= blocked[:, self.ray] >= need_known[None, :]
+            if headings is not None:
+                off = self.bearing[None, :] - headings[s:s + _BATCH, None]
+                seen &= np.abs(np.arctan2(np.sin(off), np.cos(off))) <= hfov / 2
             flat = ti * w + tj
             out.extend(flat[k][seen[k]] for k in range(len(batch)))
         return out
@@ -96,6 +102,31 @@ def _first(hit: np.ndarray, samples: np.ndarray) -> np.ndarray:
     any_hit = hit.any(axis=-1)
     first = np.where(any_hit, samples[np.argmax(hit, axis=-1)], np.inf)
     return first
+
+
+def along_paths(sight: Sight, paths: list[np.ndarray], step: float, hfov: float) -> np.ndarray:
+    """Flat raster indices of the targets the camera sees while driving ``paths`` facing
+    ahead (sampled every ``step`` metres, each sample at its nearest lattice place)."""
+    xy, heading = [], []
+    for path in paths:
+        if path is None or len(path) < 2:
+            continue
+        seg = np.diff(path, axis=0)
+        length = np.hypot(seg[:, 0], seg[:, 1])
+        cum = np.concatenate([[0.0], np.cumsum(length)])
+        at = np.arange(0.0, cum[-1], step)
+        k = np.clip(np.searchsorted(cum, at, side="right") - 1, 0, len(seg) - 1)
+        xy.append(np.stack([np.interp(at, cum, path[:, 0]), np.interp(at, cum, path[:, 1])], axis=1))
+        heading.append(np.arctan2(seg[k, 1], seg[k, 0]))
+    if not xy:
+        return np.zeros(0, dtype=np.int64)
+    pts, yaw = np.vstack(xy), np.concatenate(heading)
+    rows, cols = sight.grid.world_to_cell(pts[:, 0], pts[:, 1])
+    h, w = sight.floor.shape
+    places = np.stack([np.clip(np.round(rows / sight.lattice), 0, h - 1),
+                       np.clip(np.round(cols / sight.lattice), 0, w - 1)], axis=1).astype(np.int64)
+    seen = sight.visible(places, yaw, hfov)
+    return np.unique(np.concatenate(seen)) if seen else np.zeros(0, dtype=np.int64)
 
 
 def headings_for(bearings: np.ndarray, hfov: float, min_count: int, max_headings: int) -> list[float]:
