@@ -80,7 +80,7 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
         # What the camera sees between stops, facing ahead, needs no stop: cover again with
         # it seen, which drops the stops (and headings) that only looked along corridors.
         stops = [np.asarray(start.xy, dtype=float)] + [xy[chosen[j]] for j in order]
-        paths = [planner.plan(a, b) for a, b in zip(stops[:-1], stops[1:], strict=True)]
+        paths = [_leg(planner, a, b) for a, b in zip(stops[:-1], stops[1:], strict=True)]
         en_route[along_paths(sight, paths, params.drive_by_step, hfov)] = True
         chosen, credited = greedy_cover(views, xy, floor.size, start.xy, params.stop_cost, min_count, en_route)
         order, dist = tour_order(planner, start.xy, xy[chosen], params)
@@ -106,6 +106,28 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
     plan = TraversalPlan(waypoints, path_length(start.xy, pts), grid_length)
     return CoveragePlan(plan, stops, int(floor.sum()), int(seeable.sum()), covered.reshape(floor.shape),
                         k * grid.resolution)
+
+
+_LEG_MARGIN = 4.0  # m of map around a leg's two ends that its path is first searched in
+
+
+def _leg(planner: GridPlanner, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """The path the robot drives from a to b: straight when that is clear (most legs along a
+    corridor), else planned in a window around the two ends, else on the whole map. An A*
+    search on the whole map per leg would dominate the plan's time on a large floor."""
+    straight = np.array([a, b], dtype=float)
+    if planner.path_is_clear(straight):
+        return straight
+    grid = planner.grid
+    lo, hi = np.minimum(a, b) - _LEG_MARGIN, np.maximum(a, b) + _LEG_MARGIN
+    rlo, clo = grid.world_to_cell(lo[0], lo[1])
+    rhi, chi = grid.world_to_cell(hi[0], hi[1])
+    rlo, clo = max(int(rlo), 0), max(int(clo), 0)
+    rhi, chi = min(int(rhi) + 1, grid.height), min(int(chi) + 1, grid.width)
+    x0, y0 = grid.origin[0] + clo * grid.resolution, grid.origin[1] + rlo * grid.resolution
+    window = OccupancyGrid(grid.data[rlo:rhi, clo:chi], grid.resolution, (x0, y0))
+    path = GridPlanner(window, planner.params).plan(a, b)
+    return path if path is not None else planner.plan(a, b)
 
 
 def _world(grid: OccupancyGrid, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
