@@ -21,6 +21,9 @@ where an object can be, so this plan starts from the saved map and the camera in
    from the corridor gets no viewpoint inside: the one in the corridor sees it for nothing.
 5. Tour: nearest neighbour from the dock, then 2-opt, over grid path lengths
    (:mod:`bomc_bt.path_matrix`), from and back to the dock (``closed_tour``).
+6. With ``drive_by``: the floor the camera sees while driving that tour (facing ahead) is
+   counted as seen and steps 4-5 run once more, dropping stops that only looked along
+   corridors. The new tour's legs differ a little; what they miss, Cover Gaps finds.
 
 The visibility runs on the target lattice, not the 0.05 m map, which keeps a 93 x 90 m
 floor to seconds.
