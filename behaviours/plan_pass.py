@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from bomc_bt.coverage_plan import plan_coverage
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
 from bomc_bt.planner import GridPlanner
@@ -28,15 +29,18 @@ EXPECT_RANGE = "projection.expect_range"  # where a frame counts a miss: as far 
 
 @dataclass
 class PlanTraversalParams:
-    clearance: float = 0.45  # [m] waypoints closer to a wall are moved into the open
+    clearance: float = 0.45  # [m] paper plan: waypoints closer to a wall are moved into the open
+    view_range: float = 5.0  # [m] coverage plan: the camera's planned reach (projection.expect_range)
 
 
 @register("PlanTraversal")
 class PlanTraversal(Leaf):
-    """Samples waypoints along the build trajectory and orders them (greedy TSP + 2-opt);
+    """Plans the pass as ``traversal.plan`` says: viewpoints that see the saved map's floor
+    in a short tour (coverage), or waypoints sampled along the build trajectory (paper);
     on ``--resume``, picks up the saved pass at its next waypoint instead."""
 
     Params = PlanTraversalParams
+    config_params = {"view_range": EXPECT_RANGE}
 
     def update(self) -> Status:
         ctx = self.context
@@ -51,6 +55,11 @@ class PlanTraversal(Leaf):
 
     def plan(self) -> TraversalPlan:
         ctx = self.context
+        if ctx.config.traversal.plan == "coverage":
+            covering = plan_coverage(ctx.robot.live_map(), ctx.robot.pose(), self.params.view_range,
+                                     ctx.config.traversal, ctx.config.sim.planner)
+            write_json(ctx.site.plan_json, covering.plan.to_json())
+            return covering.plan
         grid = ctx.robot.live_map()
         trajectory = load_trajectory(ctx.site.trajectory_csv)
         planner = GridPlanner(grid, ctx.config.sim.planner)

@@ -187,18 +187,51 @@ def _non_negative(params: ExplorationParams, *names: str) -> None:
 
 @dataclass
 class TraversalParams:
-    """How the monitor pass's waypoints are sampled from the build trajectory and ordered."""
+    """How the monitor pass's waypoints are planned: from the map and the camera, or the paper's way."""
 
-    spacing: float = 2.0  # [m] minimum distance between any two waypoints
-    two_opt: bool = True  # [bool] improve the greedy order by 2-opt
+    # [choice] "coverage": viewpoints on the saved map that together see all the floor, in a
+    # short tour over grid path lengths (bomc_bt.coverage_plan); "paper": waypoints sampled
+    # along the build trajectory, greedy TSP + 2-opt (the paper's method, kept as it was)
+    plan: Literal["coverage", "paper"] = "coverage"
+    spacing: float = 2.0  # [m] paper plan: minimum distance between any two waypoints
+    two_opt: bool = True  # [bool] improve the greedy order by 2-opt (both plans)
     max_two_opt_passes: int = 20  # [count] 2-opt passes at most
-    face_travel_direction: bool = True  # [bool] waypoint yaw towards the next waypoint (else the recorded yaw)
+    face_travel_direction: bool = True  # [bool] paper plan: yaw towards the next waypoint (else the recorded yaw)
+    target_step: float = 0.25  # [m] coverage plan: spacing of the floor samples to be seen
+    candidate_step: float = 0.75  # [m] coverage plan: spacing of candidate viewpoints (a multiple of target_step)
+    clearance: float = 0.45  # [m] coverage plan: a viewpoint keeps this far from obstacles
+    min_range: float = 1.0  # [m] coverage plan: nearer floor is below the tilted camera's image
+    # [m] coverage plan: unknown map within this of free floor is floor to see (furniture's
+    # lidar shadow), and a line of sight may cross unknown cells only that near its target
+    shadow: float = 0.5
+    hfov_deg: float = 50.0  # [deg] coverage plan: field of view of one heading (the camera's, less a margin)
+    max_headings: int = 4  # [count] coverage plan: headings per viewpoint at most
+    # [m] coverage plan: what one more stop costs, in metres of driving (slowing down,
+    # turning through its headings, dwelling); greedy cover weighs newly seen floor against
+    # this plus the straight-line distance to the nearest viewpoint already chosen
+    stop_cost: float = 4.0
+    min_gain: float = 0.5  # [m] coverage plan: a stop or heading newly sees at least this squared (a chair)
+    path_resolution: float = 0.2  # [m] coverage plan: grid cell of the path-length matrix (pooled planner cells)
+    # [bool] coverage plan: floor the camera sees while driving between stops (facing ahead)
+    # needs no stop; the cover is chosen again with it seen
+    drive_by: bool = True
+    drive_by_step: float = 0.5  # [m] coverage plan: spacing of the views credited along the driven path
+    closed_tour: bool = True  # [bool] coverage plan: order the tour from and back to the dock (else an open path)
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.spacing) and self.spacing > 0):
             raise ValueError("spacing must be a positive number")
         if self.max_two_opt_passes < 0:
             raise ValueError("max_two_opt_passes must not be negative")
+        if self.plan not in ("coverage", "paper"):
+            raise ValueError(f"plan must be coverage or paper, not {self.plan!r}")
+        if not (self.target_step > 0 and self.candidate_step >= self.target_step and self.path_resolution > 0
+                and self.drive_by_step > 0):
+            raise ValueError("need target_step, path_resolution, drive_by_step > 0 and candidate_step >= target_step")
+        if self.clearance < 0 or self.min_range < 0 or self.shadow < 0 or self.stop_cost < 0 or self.min_gain < 0:
+            raise ValueError("clearance, min_range, shadow, stop_cost and min_gain must be >= 0")
+        if not 0 < self.hfov_deg <= 360 or self.max_headings < 1:
+            raise ValueError("need 0 < hfov_deg <= 360 and max_headings >= 1")
 
 
 @dataclass

@@ -200,23 +200,26 @@ def two_opt(points: np.ndarray, order: Sequence[int], distance: np.ndarray | Non
     return [int(i) for i in route]
 
 
-def _two_opt_open(d: np.ndarray, route: np.ndarray, max_passes: int, fixed_first: bool) -> np.ndarray:
+def _two_opt_open(d: np.ndarray, route: np.ndarray, max_passes: int, fixed_first: bool,
+                  fixed_last: bool = False) -> np.ndarray:
     """First-improvement 2-opt on an open path; each position's moves are one vector op.
 
     Reversing route[i..j] replaces edges (i-1, i) and (j, j+1) by (i-1, j) and (i, j+1);
-    at the path's ends the missing edge costs nothing, which is what makes it open.
+    at the path's ends the missing edge costs nothing, which is what makes it open. With
+    ``fixed_last`` the last place stays last (a tour back to where it started).
     """
     n = len(route)
     if n < 3:
         return route
     eps = 1e-9
     first = 1 if fixed_first else 0
+    end = n - 1 if fixed_last else n  # j < end: the places a reversal may move
     for _ in range(max_passes):
         improved = False
-        for i in range(first, n - 1):
+        for i in range(first, end - 1):
             a = route[i - 1] if i > 0 else -1
             b = route[i]
-            js = np.arange(i + 1, n)
+            js = np.arange(i + 1, end)
             c = route[js]
             nxt = np.where(js + 1 < n, route[np.minimum(js + 1, n - 1)], -1)
             has_next = js + 1 < n
@@ -231,6 +234,14 @@ def _two_opt_open(d: np.ndarray, route: np.ndarray, max_passes: int, fixed_first
         if not improved:
             break
     return route
+
+
+def two_opt_route(d: np.ndarray, route: Sequence[int], max_passes: int = 20, fixed_first: bool = True,
+                  fixed_last: bool = False) -> list[int]:
+    """2-opt on a route over a distance matrix ``d`` (what a path-length tour is improved by)."""
+    out = _two_opt_open(np.asarray(d, dtype=float), np.asarray(route, dtype=np.int64), max_passes,
+                        fixed_first, fixed_last)
+    return [int(i) for i in out]
 
 
 def path_length(start_xy, points: np.ndarray) -> float:

@@ -75,6 +75,15 @@ class GapParams:
             raise ValueError("shadow must be >= 0")
 
 
+def floor_mask(grid: OccupancyGrid, shadow: float) -> np.ndarray:
+    """Where objects can stand: free cells, and unknown ones within ``shadow`` metres of them."""
+    free = grid.free_mask()
+    if shadow <= 0:
+        return free
+    near = cv2.distanceTransform((~free).astype(np.uint8), cv2.DIST_L2, 5) * grid.resolution
+    return free | (grid.unknown_mask() & (near <= shadow))
+
+
 def gap_targets(grid: OccupancyGrid, seen: np.ndarray, params: GapParams) -> np.ndarray:
     """(M, 2) map points sampling the floor not seen, in regions of at least min_area.
 
@@ -82,12 +91,7 @@ def gap_targets(grid: OccupancyGrid, seen: np.ndarray, params: GapParams) -> np.
     table or a chair the lidar saw only legs, and the camera, higher up, sees what stands
     there.
     """
-    free = grid.free_mask()
-    floor = free
-    if params.shadow > 0:
-        near = cv2.distanceTransform((~free).astype(np.uint8), cv2.DIST_L2, 5) * grid.resolution
-        floor = free | (grid.unknown_mask() & (near <= params.shadow))
-    missing = (floor & ~seen.astype(bool)).astype(np.uint8)
+    missing = (floor_mask(grid, params.shadow) & ~seen.astype(bool)).astype(np.uint8)
     missing = cv2.morphologyEx(missing, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))  # no slivers
     n, labels, stats, _ = cv2.connectedComponentsWithStats(missing, connectivity=8)
     big = np.zeros(n, dtype=bool)

@@ -1,0 +1,256 @@
+"""The coverage plan of a monitor pass: few viewpoints that together see all the floor.
+
+The paper samples waypoints every 2 m along the build trajectory. Exploration wanders,
+so on a large floor that trajectory is many kilometres and its waypoints are many and
+redundant: a pass then costs more than the build. A pass has one job, to see every place
+where an object can be, so this plan starts from the saved map and the camera instead:
+
+1. Floor to see: free cells and unknown ones within ``shadow`` of them (furniture's lidar
+   shadow), sampled every ``target_step``.
+2. Candidate viewpoints: lattice places ``candidate_step`` apart that the robot can reach
+   from the dock (the planner's costmap: traversable, in the dock's component) with
+   ``clearance`` from obstacles.
+3. What a viewpoint sees (:mod:`bomc_bt.sight`): floor between ``min_range`` and the
+   camera's planned reach (``projection.expect_range``) along a free line of sight, all
+   around -- at a stop the robot turns in place through up to ``max_headings`` headings,
+   each an ``hfov_deg`` window facing the floor it was chosen for. Floor no candidate sees
+   is not reachable by sight and is left out (reported).
+4. Greedy set cover: the next viewpoint is the one with most newly seen floor per cost,
+   the cost being ``stop_cost`` plus the straight-line distance to the nearest viewpoint
+   already chosen (or the dock), until none adds a ``min_gain``-wide square. A room seen through its door
+   from the corridor gets no viewpoint inside: the one in the corridor sees it for nothing.
+5. Tour: nearest neighbour from the dock, then 2-opt, over grid path lengths
+   (:mod:`bomc_bt.path_matrix`), from and back to the dock (``closed_tour``).
+6. With ``drive_by``: the floor the camera sees while driving that tour (facing ahead) is
+   counted as seen and steps 4-5 run once more, dropping stops that only looked along
+   corridors. The new tour's legs differ a little; what they miss, Cover Gaps finds.
+
+The visibility runs on the target lattice, not the 0.05 m map, which keeps a 93 x 90 m
+floor to seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from bomc_bt.algorithm_params import PlannerParams, TraversalParams
+from bomc_bt.geometry import Pose2D, wrap_angle
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.path_matrix import path_length_matrix
+from bomc_bt.planner import GridPlanner
+from bomc_bt.sight import Sight, along_paths, headings_for
+from bomc_bt.traversal import TraversalPlan, path_length, two_opt_route
+from bomc_bt.viewpoints import floor_mask
+
+
+@dataclass
+class CoveragePlan:
+    """The plan, and what it covers (for the leaf's message and the tests)."""
+
+    plan: TraversalPlan
+    viewpoints: list[tuple[float, float]]  # stop positions in tour order (each with one or more headings)
+    floor_targets: int  # floor samples on the map
+    seen_targets: int  # of them, seen by some candidate (reachable by sight)
+    covered: np.ndarray = field(repr=False)  # (H, W) bool target raster: what the chosen stops see
+    target_step: float = 0.25  # m between target samples (the raster's cell)
+
+
+def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params: TraversalParams | None = None,
+                  planner_params: PlannerParams | None = None) -> CoveragePlan:
+    """Viewpoints that see the floor, each with the headings to face, in tour order."""
+    params = params or TraversalParams()
+    planner = GridPlanner(grid, planner_params)
+    k = max(1, int(round(params.target_step / grid.resolution)))
+    m = max(1, int(round(params.candidate_step / (k * grid.resolution))))
+    floor = floor_mask(grid, params.shadow)[::k, ::k]
+    places = candidate_places(grid, planner, start, floor.shape, k, m, params.clearance)
+    sight = Sight(grid, floor, k, view_range, params.min_range, params.shadow)
+    views = sight.visible(places)
+    seeable = np.zeros(floor.size, dtype=bool)
+    for v in views:
+        seeable[v] = True
+    xy = _world(grid, places[:, 0] * k, places[:, 1] * k)
+    min_count = max(1, int(math.ceil((params.min_gain / (k * grid.resolution)) ** 2 - 1e-9)))
+    hfov = math.radians(params.hfov_deg)
+    chosen, credited = greedy_cover(views, xy, floor.size, start.xy, params.stop_cost, min_count)
+    order, dist = tour_order(planner, start.xy, xy[chosen], params)
+    en_route = np.zeros(floor.size, dtype=bool)
+    if params.drive_by and chosen:
+        # What the camera sees between stops, facing ahead, needs no stop: cover again with
+        # it seen, which drops the stops (and headings) that only looked along corridors.
+        stops = [np.asarray(start.xy, dtype=float)] + [xy[chosen[j]] for j in order]
+        paths = [_leg(planner, a, b) for a, b in zip(stops[:-1], stops[1:], strict=True)]
+        en_route[along_paths(sight, paths, params.drive_by_step, hfov)] = True
+        chosen, credited = greedy_cover(views, xy, floor.size, start.xy, params.stop_cost, min_count, en_route)
+        order, dist = tour_order(planner, start.xy, xy[chosen], params)
+    covered = en_route.copy()
+    for i in chosen:
+        covered[views[i]] = True
+    waypoints: list[Pose2D] = []
+    stops: list[tuple[float, float]] = []
+    at = np.asarray(start.xy, dtype=float)
+    for j in order:
+        p = xy[chosen[j]]
+        rows, cols = np.divmod(credited[j], floor.shape[1])
+        targets = _world(grid, rows * k, cols * k)
+        bearings = np.arctan2(targets[:, 1] - p[1], targets[:, 0] - p[0])
+        arrive = math.atan2(p[1] - at[1], p[0] - at[0]) if np.hypot(*(p - at)) > 1e-9 else start.yaw
+        headings = headings_for(bearings, hfov, min_count, params.max_headings) or [arrive]
+        waypoints += [Pose2D(float(p[0]), float(p[1]), h) for h in _turn_order(headings, arrive)]
+        stops.append((float(p[0]), float(p[1])))
+        at = p
+    pts = np.array(stops, dtype=float).reshape(-1, 2)
+    legs = [0] + [j + 1 for j in order]
+    grid_length = float(sum(dist[a, b] for a, b in zip(legs[:-1], legs[1:], strict=True)))
+    plan = TraversalPlan(waypoints, path_length(start.xy, pts), grid_length)
+    return CoveragePlan(plan, stops, int(floor.sum()), int(seeable.sum()), covered.reshape(floor.shape),
+                        k * grid.resolution)
+
+
+_LEG_MARGIN = 4.0  # m of map around a leg's two ends that its path is first searched in
+
+
+def _leg(planner: GridPlanner, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """The path the robot drives from a to b: straight when that is clear (most legs along a
+    corridor), else planned in a window around the two ends, else on the whole map. An A*
+    search on the whole map per leg would dominate the plan's time on a large floor."""
+    straight = np.array([a, b], dtype=float)
+    if planner.path_is_clear(straight):
+        return straight
+    grid = planner.grid
+    lo, hi = np.minimum(a, b) - _LEG_MARGIN, np.maximum(a, b) + _LEG_MARGIN
+    rlo, clo = grid.world_to_cell(lo[0], lo[1])
+    rhi, chi = grid.world_to_cell(hi[0], hi[1])
+    rlo, clo = max(int(rlo), 0), max(int(clo), 0)
+    rhi, chi = min(int(rhi) + 1, grid.height), min(int(chi) + 1, grid.width)
+    x0, y0 = grid.origin[0] + clo * grid.resolution, grid.origin[1] + rlo * grid.resolution
+    window = OccupancyGrid(grid.data[rlo:rhi, clo:chi], grid.resolution, (x0, y0))
+    path = GridPlanner(window, planner.params).plan(a, b)
+    return path if path is not None else planner.plan(a, b)
+
+
+def _world(grid: OccupancyGrid, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    x, y = grid.cell_to_world(rows, cols)
+    return np.stack([np.asarray(x, float), np.asarray(y, float)], axis=-1).reshape(-1, 2)
+
+
+def candidate_places(grid: OccupancyGrid, planner: GridPlanner, start: Pose2D, shape: tuple[int, int],
+                     k: int, m: int, clearance: float) -> np.ndarray:
+    """(K, 2) target-lattice (i, j) of places every ``m`` targets that the robot can stand
+    on with ``clearance`` and reach from ``start`` (the planner's component of the dock)."""
+    ii, jj = np.mgrid[0:shape[0]:m, 0:shape[1]:m]
+    ii, jj = ii.ravel(), jj.ravel()
+    xy = _world(grid, ii * k, jj * k)
+    pr, pc = planner.planning_grid.world_to_cell(xy[:, 0], xy[:, 1])
+    inside = (pr >= 0) & (pr < planner.shape[0]) & (pc >= 0) & (pc < planner.shape[1])
+    pr, pc = np.clip(pr, 0, planner.shape[0] - 1), np.clip(pc, 0, planner.shape[1] - 1)
+    ok = inside & ~planner.lethal[pr, pc] & (planner.clearance[pr, pc] >= clearance)
+    ok &= grid.free_mask()[np.minimum(ii * k, grid.height - 1), np.minimum(jj * k, grid.width - 1)]
+    dock = planner.nearest_traversable(start.xy, planner.params.escape_radius)
+    if dock is None:
+        return np.zeros((0, 2), dtype=np.int64)
+    _, labels = cv2.connectedComponents((~planner.lethal).astype(np.uint8), connectivity=8)
+    ok &= labels[pr, pc] == labels[planner.cell(dock)]
+    return np.stack([ii[ok], jj[ok]], axis=1).astype(np.int64)
+
+
+def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]), vectorised."""
+    lens = hi - lo
+    total = int(lens.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    starts = np.concatenate([[0], np.cumsum(lens)[:-1]])
+    return np.repeat(lo - starts, lens) + np.arange(total)
+
+
+def greedy_cover(views: list[np.ndarray], xy: np.ndarray, n_targets: int, start_xy, stop_cost: float,
+                 min_count: int, seen: np.ndarray | None = None) -> tuple[list[int], list[np.ndarray]]:
+    """Chosen candidates (in the order picked) and the targets each newly saw.
+
+    Targets in ``seen`` (seen on the way) need no viewpoint. Each round takes the candidate
+    with the most targets not yet seen per cost (``stop_cost``
+    plus the straight-line distance to the nearest chosen viewpoint or the start), while
+    one still sees ``min_count`` new targets. Gains are kept current through the targets'
+    list of the candidates that see them, so a round costs a few vector operations.
+    """
+    n = len(views)
+    if n == 0:
+        return [], []
+    lens = np.array([len(v) for v in views], dtype=np.int64)
+    indptr = np.concatenate([[0], np.cumsum(lens)])
+    indices = np.concatenate(views).astype(np.int64) if lens.sum() else np.zeros(0, dtype=np.int64)
+    seers = np.repeat(np.arange(n), lens)[np.argsort(indices, kind="stable")]  # by target
+    t_ptr = np.concatenate([[0], np.cumsum(np.bincount(indices, minlength=n_targets))])
+    covered = np.zeros(n_targets, dtype=bool) if seen is None else seen.astype(bool).copy()
+    gain = (lens - np.bincount(seers[_ranges(t_ptr[:-1][covered], t_ptr[1:][covered])], minlength=n)).astype(float)
+    near = np.hypot(xy[:, 0] - start_xy[0], xy[:, 1] - start_xy[1])
+    chosen: list[int] = []
+    credited: list[np.ndarray] = []
+    while True:
+        score = np.where(gain >= min_count, gain / np.maximum(stop_cost + near, 1e-6), -1.0)
+        i = int(np.argmax(score))  # ties: the lowest index (raster order), so the plan is deterministic
+        if score[i] < 0:
+            break
+        new = indices[indptr[i]:indptr[i + 1]]
+        new = new[~covered[new]]
+        covered[new] = True
+        gain -= np.bincount(seers[_ranges(t_ptr[new], t_ptr[new + 1])], minlength=n)
+        near = np.minimum(near, np.hypot(xy[:, 0] - xy[i, 0], xy[:, 1] - xy[i, 1]))
+        chosen.append(i)
+        credited.append(new)
+    return chosen, credited
+
+
+def nearest_neighbour(dist: np.ndarray) -> list[int]:
+    """Greedy order over a distance matrix from place 0 (ties: the lowest index)."""
+    n = len(dist)
+    visited = np.zeros(n, dtype=bool)
+    visited[0] = True
+    route, at = [0], 0
+    for _ in range(n - 1):
+        row = np.where(visited, np.inf, dist[at])
+        at = int(np.argmin(row))
+        visited[at] = True
+        route.append(at)
+    return route
+
+
+def route_length(dist: np.ndarray, route: list[int]) -> float:
+    return float(sum(dist[a, b] for a, b in zip(route[:-1], route[1:], strict=True)))
+
+
+def tour_order(planner: GridPlanner, start_xy, points: np.ndarray, params: TraversalParams
+               ) -> tuple[list[int], np.ndarray]:
+    """Visiting order of ``points`` and the (n + 1)-square path-length matrix (start first).
+
+    Nearest neighbour from the start, then 2-opt with the start fixed (and, for a closed
+    tour, a copy of it fixed at the end, so the way back counts).
+    """
+    pts = np.vstack([np.asarray(start_xy, dtype=float)[:2], np.asarray(points, dtype=float).reshape(-1, 2)])
+    dist = path_length_matrix(planner, pts, params.path_resolution)
+    finite = np.where(np.isfinite(dist), dist, 1e6)  # a place cut off is visited last, not never
+    if params.closed_tour:
+        finite = np.vstack([np.hstack([finite, finite[:, :1]]), np.hstack([finite[:1], [[0.0]]])])
+    route = nearest_neighbour(finite[: len(pts), : len(pts)])
+    if params.closed_tour:
+        route.append(len(pts))
+    if params.two_opt and len(route) > 3:
+        route = two_opt_route(finite, route, params.max_two_opt_passes, fixed_first=True,
+                              fixed_last=params.closed_tour)
+    return [i - 1 for i in route[1:] if 0 < i < len(pts)], dist
+
+
+def _turn_order(headings: list[float], arrive: float) -> list[float]:
+    """Headings from the one nearest the arrival direction on, each time the nearest turn."""
+    left, out, at = list(headings), [], arrive
+    while left:
+        nxt = min(left, key=lambda h: abs(wrap_angle(h - at)))
+        left.remove(nxt)
+        out.append(nxt)
+        at = nxt
+    return out
