@@ -129,13 +129,20 @@ def _as_nobody() -> list[str] | None:
     if os.geteuid() != 0:
         return []
     setpriv = shutil.which("setpriv")
-    return [setpriv, "--reuid=nobody", "--regid=nogroup", "--clear-groups"] if setpriv else None
+    if setpriv is None:
+        return None
+    prefix = [setpriv, "--reuid=nobody", "--regid=nogroup", "--clear-groups"]
+    # nobody must be able to run bomc from this checkout (a clone under a 0700 temp dir cannot)
+    probe = subprocess.run(prefix + [sys.executable, "-c", "import bomc_bt.cli"], capture_output=True,
+                           cwd="/", env=bomc_env(), timeout=60)
+    return prefix if probe.returncode == 0 else None
 
 
 def test_evaluate_and_view_work_on_a_site_nobody_may_write(monitored):
     prefix = _as_nobody()
     if prefix is None:
-        pytest.skip("running as root without setpriv: cannot drop the permission to write")
+        pytest.skip("running as root, and nobody cannot run bomc from this checkout (no setpriv, or the "
+                    "checkout is not readable by other users): cannot drop the permission to write")
     parent = Path(tempfile.mkdtemp(prefix="bomc-ro-"))
     try:
         parent.chmod(0o755)
