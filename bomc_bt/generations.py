@@ -121,7 +121,7 @@ def begin_build(root: Path, new_map: bool = False) -> StagedBuild:
     """Lock the site, recover, refuse or adopt, and stage a new generation (steps 1-4)."""
     root = Path(root)
     lock = SiteLock.acquire(root, "build", create=True)
-    try:
+    with released_on_error(lock, root, "prepare the new map generation"):
         recover(root)
         sessions = _graph_sessions(root)
         previous = current_generation(root)
@@ -140,12 +140,6 @@ def begin_build(root: Path, new_map: bool = False) -> StagedBuild:
         partial.mkdir(parents=True)
         site = Site(root, data=partial)
         return StagedBuild(root, number, previous, bool(sessions), lock, site)
-    except OSError as exc:
-        lock.release()
-        raise BomcError(f"cannot prepare the new map generation ({exc.strerror})", root) from None
-    except BaseException:
-        lock.release()
-        raise
 
 
 def recover(root: Path) -> None:
@@ -251,12 +245,19 @@ def _fsync_dir(path: Path) -> None:
 def lock_for_monitor(root: Path) -> SiteLock:
     """The writer lock of a monitor pass, after finishing whatever a killed build left."""
     lock = SiteLock.acquire(Path(root), "monitor")
-    try:
+    with released_on_error(lock, root, "finish the last build's switch"):
         recover(Path(root))
+    return lock
+
+
+@contextlib.contextmanager
+def released_on_error(lock: SiteLock, root: Path, doing: str):
+    """Release ``lock`` if the block fails; a file-system error becomes one line naming the site."""
+    try:
+        yield
     except OSError as exc:
         lock.release()
-        raise BomcError(f"cannot finish the last build's switch ({exc.strerror})", root) from None
+        raise BomcError(f"cannot {doing} ({exc.strerror})", root) from None
     except BaseException:
         lock.release()
         raise
-    return lock
