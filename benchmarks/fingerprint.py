@@ -6,6 +6,9 @@ full event history, the traversal plan) and the F1 of every session. Run it befo
 after a change and ``diff`` the outputs: identical lines mean identical behaviour.
 
     python benchmarks/fingerprint.py --world ../shared/worlds/lab-b.yaml --sessions 3
+
+``--config FILE`` (repeatable) layers config files over the defaults, as every ``bomc``
+command does: e.g. a file with ``association: {mode: paper}`` fingerprints Algorithm 2.
 """
 
 from __future__ import annotations
@@ -31,14 +34,14 @@ def _table(db: Path, sql: str) -> str:
     return _sha(repr(rows).encode())
 
 
-def fingerprint(world: Path, sessions: int, seed: int) -> list[str]:
+def fingerprint(world: Path, sessions: int, seed: int, config_files: list[str] = ()) -> list[str]:
     from bomc_bt import run
     from bomc_bt.evaluate_site import evaluate_session
 
     lines = []
     with tempfile.TemporaryDirectory() as tmp:
         site = Path(tmp) / "site"
-        config = run.build_config()
+        config = run.build_config(list(config_files))
         build = run.run_build(world, site, seed=seed, config=config)
         lines.append(f"build succeeded={build.succeeded} sim_time={build.sim_time:.3f} ticks={build.ticks}")
         for name in ("map.pgm", "map.yaml", "trajectory.csv"):
@@ -62,8 +65,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--world", required=True)
     p.add_argument("--sessions", type=int, default=3)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--config", action="append", default=[], help="config file layered over the defaults")
     args = p.parse_args(argv)
-    for line in fingerprint(Path(args.world), args.sessions, args.seed):
+    for line in fingerprint(Path(args.world), args.sessions, args.seed, args.config):
         print(line, flush=True)
     return 0
 
