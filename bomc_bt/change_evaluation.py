@@ -11,11 +11,13 @@ displaced by more than its category's association distance is ``moved`` (a nudge
 than that is not a change the map can show). An object that disappears and comes back
 under the same name in another category counts as removed plus added.
 
-**Net changes** (from the store, nodes keyed by id): only nodes with an event in the pass
-are looked at, and only their state at the two ends counts, so a node removed and re-added
-(or moved away and back) within the pass is no change at all. present -> absent is
-``removed`` (at the node's last position, that of its removal), absent -> present is
-``added``, present -> present displaced by more than the association distance is ``moved``.
+**Net changes** (from the store, nodes keyed by id; :mod:`bomc_bt.net_changes`, the same
+the session report shows the operator): only nodes with an event in the pass are looked
+at, and only their state at the two ends counts, so a node removed and re-added (or moved
+away and back) within the pass is no change at all, nor is a duplicate merged into
+another node. present -> absent is ``removed`` (at the node's last position, that of its
+removal), absent -> present is ``added``, present -> present displaced by more than the
+association distance is ``moved``.
 
 **Matching**, per kind and category, one-to-one, the object protocol's maximum matching
 within the association distance: a removal on the removed object's old position, an
@@ -45,7 +47,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bomc_bt.evaluation import ClassScores, match_pairs, scores
-from bomc_bt.graph import EVENT_KINDS, Event, Node
+from bomc_bt.graph import EVENT_KINDS, Event
+from bomc_bt.net_changes import net_changes
 
 CHANGE_KINDS = ("removed", "added", "moved")
 Threshold = Callable[[str], float]
@@ -118,29 +121,10 @@ def true_changes(before: Mapping[str, tuple[str, np.ndarray]], after: Mapping[st
     return out
 
 
-def net_changes(before: Sequence[Node], after: Sequence[Node], events: Sequence[Event],
-                threshold: Threshold) -> list[ObjectChange]:
-    """The map's net changes over one pass.
-
-    ``before`` / ``after``: the present nodes at the end of the previous pass and of this
-    one (:meth:`SiteStore.graph_after`); ``events``: this pass's history in write order.
-    """
-    was = {n.id: n for n in before}
-    now = {n.id: n for n in after}
-    last: dict[int, Event] = {}
-    for e in events:
-        last[int(e.node_id)] = e
-    out: list[ObjectChange] = []
-    for nid in sorted(last):
-        b, a = was.get(nid), now.get(nid)
-        if b is not None and a is not None:
-            if _displaced(_xyz(b.position), _xyz(a.position), threshold(a.category)):
-                out.append(ObjectChange("moved", nid, a.category, _xyz(b.position), _xyz(a.position)))
-        elif b is not None:
-            out.append(ObjectChange("removed", nid, b.category, _xyz(last[nid].position), None))
-        elif a is not None:
-            out.append(ObjectChange("added", nid, a.category, None, _xyz(a.position)))
-    return out
+def reported_changes(events: Sequence[Event], since: int | None, threshold: Threshold) -> list[ObjectChange]:
+    """The map's net changes over the passes after ``since`` (:func:`bomc_bt.net_changes.net_changes`),
+    as :class:`ObjectChange` records keyed by node id; ``events``: the history up to the pass's end."""
+    return [ObjectChange(c.kind, c.node_id, c.category, c.old, c.new) for c in net_changes(events, since, threshold)]
 
 
 def raw_event_counts(events: Sequence[Event]) -> dict[str, int]:

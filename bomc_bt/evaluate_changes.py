@@ -19,8 +19,8 @@ import numpy as np
 from bomc_bt.change_evaluation import (
     CHANGE_KINDS,
     ChangeResult,
-    net_changes,
     raw_event_counts,
+    reported_changes,
     score_changes,
     true_changes,
 )
@@ -45,9 +45,7 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
             known = ", ".join(map(str, sorted(recorded))) or "none"
             raise BomcError(f"session {session} was not recorded (recorded: {known})", site.store_path, "--session")
         previous = max((n for n in recorded if n < session), default=None)
-        events = store.events(session=session)
-        before = store.graph_after(previous) if previous is not None else []
-        after = store.graph_after(session)
+        history = store.events(until=session)
     threshold = ObjectGraph(config.association).threshold
 
     def truth_at_end(n: int | None) -> dict[str, tuple[str, np.ndarray]]:
@@ -57,7 +55,8 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
         return {name: (o.category, np.asarray(o.position, dtype=float)) for name, o in present.items()}
 
     truth = true_changes(truth_at_end(previous), truth_at_end(session), threshold)
-    net = net_changes(before, after, events, threshold)
+    net = reported_changes(history, previous, threshold)
+    events = [e for e in history if e.session == session]
     return score_changes(truth, net, threshold, session, previous, raw_event_counts(events))
 
 

@@ -1,16 +1,37 @@
-"""Session reports: what one monitor pass did, in JSON, Markdown and a PNG of the map."""
+"""Session reports: what one monitor pass did, in JSON, Markdown and a PNG of the map.
+
+What changed is reported per node, net over the pass (:mod:`bomc_bt.net_changes`), with
+the evidence: a chair removed and found again two seconds later is no change for the
+operator. The raw per-frame event counts stay in the report (``events``) and every raw
+event in the store's history, for debugging.
+"""
 
 from __future__ import annotations
 
 from collections import Counter
 from typing import Any
 
+from bomc_bt.net_changes import NetChange, net_changes, summarize
 from bomc_bt.render import render_semantic_map, save_png
 from bomc_bt.site import write_json
 from bomc_bt.tree.leaf import read_key
 
 LOCALIZED_KEY = "localized"
 """The blackboard key the Relocalize leaf writes: ``local`` or ``global`` (absent: not localized)."""
+
+
+def pass_changes(ctx) -> tuple[int | None, list[NetChange]]:
+    """The net changes of the pass in ``ctx`` since the previous recorded pass (None: since the empty map)."""
+    if ctx.store is None or ctx.graph is None:
+        return None, []
+    previous = max((s.number for s in ctx.store.sessions() if s.number < ctx.session), default=None)
+    return previous, net_changes(ctx.store.events(until=ctx.session), previous, ctx.graph.threshold)
+
+
+def changes_summary(ctx) -> dict[str, Any]:
+    """The report's ``changes`` key: counts per kind and one record per changed node."""
+    previous, changes = pass_changes(ctx)
+    return {"since_session": previous, "counts": summarize(changes), "nodes": [c.to_json() for c in changes]}
 
 
 def session_summary(ctx) -> dict[str, Any]:
@@ -29,6 +50,7 @@ def session_summary(ctx) -> dict[str, Any]:
         "nodes": len(ctx.graph.nodes),
         "nodes_by_category": dict(sorted(by_category.items())),
         "events": {k: events.get(k, 0) for k in ("added", "removed", "moved", "updated")},
+        "changes": changes_summary(ctx),
         "coverage": {
             "observed_m2": round(coverage.observed_area, 1) if coverage else 0.0,
             "fraction": round(coverage.fraction, 3) if coverage else 0.0,
@@ -41,6 +63,8 @@ def session_summary(ctx) -> dict[str, Any]:
 
 def write_session_report(ctx, close: bool = True) -> dict[str, Any]:
     """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store."""
+    if close:  # the history exact at the pass's end before the net changes are read from it
+        ctx.store.reconcile(ctx.session, ctx.now())
     summary = session_summary(ctx)
     if close:
         ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()})
@@ -67,7 +91,7 @@ def report_markdown(s: dict[str, Any]) -> str:
         "",
         f"- sim time: {s['sim_time_s']} s, path: {s['path_length_m']} m, frames: {s['frames']}",
         f"- nodes: {s['nodes']} ({', '.join(f'{k} {v}' for k, v in s['nodes_by_category'].items()) or 'none'})",
-        f"- events: {', '.join(f'{k} {v}' for k, v in s['events'].items())}",
+        f"- raw events (per frame, for debugging): {', '.join(f'{k} {v}' for k, v in s['events'].items())}",
         f"- coverage: {s['coverage']['observed_m2']} m² observed ({s['coverage']['fraction']:.0%} of free space)",
     ]
     if t:
@@ -81,6 +105,19 @@ def report_markdown(s: dict[str, Any]) -> str:
     if regions:
         lines.append("- largest unobserved regions:")
         lines += [f"  - ({r['x']}, {r['y']}): {r['area_m2']} m²" for r in regions[:10]]
+    lines += _changes_markdown(s.get("changes"))
     if s.get("reason"):
         lines.append(f"- reason: {s['reason']}")
     return "\n".join(lines) + "\n"
+
+
+def _changes_markdown(changes: dict[str, Any] | None) -> list[str]:
+    if not changes:
+        return []
+    since = "the empty map" if changes["since_session"] is None else f"session {changes['since_session']}"
+    counts = ", ".join(f"{k} {v}" for k, v in changes["counts"].items())
+    lines = ["", f"## Changes since {since}: {counts}", ""]
+    for c in changes["nodes"]:
+        lines.append(f"- {NetChange.from_json(c).describe()}")
+    return lines
+

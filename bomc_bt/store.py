@@ -11,13 +11,15 @@ Tables:
 
 * ``schema_version`` -- one row; a file with an unknown version or without our tables is
   refused with a :class:`BomcError` instead of being guessed at. Version 1 stores (before
-  node footprints) are upgraded in place by adding the empty footprint columns, in one
-  transaction: nothing in them changes meaning.
+  node footprints) and version 2 stores (before removal evidence) are upgraded in place by
+  the next writer, adding the empty columns in one transaction: nothing in them changes
+  meaning. A reader reads a version 2 store as it is (its removals have no evidence).
 * ``nodes`` -- the current state of every id ever issued (removed ones with state
   ``removed``), so the next id continues from the max id ever issued; with the floor
   footprint the association learned for it (NULL when unknown).
 * ``node_history`` -- every event, append-only; :meth:`SiteStore.graph_after` rebuilds
-  the graph as it stood at the end of any session from it. Nothing is overwritten.
+  the graph as it stood at the end of any session from it. Nothing is overwritten. A
+  removal keeps its evidence: the misses that confirmed it and when the node was last seen.
 * ``sessions`` -- one row per monitor pass: started/ended robot time and wall time (the
   wall time is for people reading the report, never for timing), outcome, counts, report.
 * ``progress`` -- small JSON key/value pairs for resuming a mission (next waypoint index).
@@ -43,7 +45,7 @@ import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
-from bomc_bt.store_schema import SCHEMA, connect, open_schema
+from bomc_bt.store_schema import SCHEMA, connect, has_evidence, open_schema
 
 FILENAME = "site.db"
 _SCHEMA = SCHEMA  # the schema text, for tests that write old versions of it
@@ -88,6 +90,7 @@ class SiteStore:
         try:
             with self._errors("open"):
                 open_schema(self._db, path, readonly)
+                self._evidence = has_evidence(self._db)
         except BomcError:
             self._db.close()
             raise
@@ -184,6 +187,12 @@ class SiteStore:
                  json.dumps(summary, default=_jsonable), number),
             )
 
+    def reconcile(self, session: int, stamp: float | None) -> None:
+        """Append the ``updated`` rows that make the history exact now (what :meth:`end_session`
+        does first; calling it before changes nothing the end writes)."""
+        with self._transaction("reconcile") as db:
+            self._reconcile(db, session, stamp)
+
     def _reconcile(self, db: sqlite3.Connection, session: int, stamp: float | None) -> None:
         rows = db.execute(
             """SELECT n.id, n.category, n.x, n.y, n.z, n.confidence, h.x, h.y, h.z, h.confidence
@@ -223,9 +232,10 @@ class SiteStore:
                 prev = (None, None, None) if e.previous is None else tuple(map(float, _xyz(e.previous)))
                 db.execute(
                     "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence,"
-                    " px, py, pz) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    " px, py, pz, misses, seen, merged_into) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (int(e.node_id), int(e.session), float(e.stamp), e.kind, e.category,
-                     *map(float, _xyz(e.position)), float(e.confidence), *prev),
+                     *map(float, _xyz(e.position)), float(e.confidence), *prev,
+                     _opt_int(e.misses), _opt_float(e.last_seen), _opt_int(e.merged_into)),
                 )
             for n in nodes_changed:
                 box = (None,) * 4 if n.footprint is None else tuple(map(float, n.footprint))
@@ -284,7 +294,9 @@ class SiteStore:
 
     def events(self, session: int | None = None, until: int | None = None) -> list[Event]:
         """History in write order: of one ``session``, up to and including ``until``, or all."""
-        sql = "SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz FROM node_history"
+        evidence = "misses, seen, merged_into" if self._evidence else "NULL, NULL, NULL"
+        sql = f"SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz, {evidence}" \
+              " FROM node_history"
         if session is not None:
             rows = self._query(sql + " WHERE session=? ORDER BY seq", (session,))
         elif until is not None:
@@ -293,8 +305,8 @@ class SiteStore:
             rows = self._query(sql + " ORDER BY seq")
         return [
             Event(kind, nid, cat, np.array([x, y, z]), sess, stamp,
-                  None if px is None else np.array([px, py, pz]), conf)
-            for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz in rows
+                  None if px is None else np.array([px, py, pz]), conf, misses, seen, merged)
+            for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz, misses, seen, merged in rows
         ]
 
     # ------------------------------------------------------------- progress
@@ -317,6 +329,10 @@ def _xyz(p: np.ndarray) -> np.ndarray:
 
 def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def _opt_int(value: Any) -> int | None:
+    return None if value is None else int(value)
 
 
 def _opt_float(value: Any) -> float | None:

@@ -31,8 +31,12 @@ from pathlib import Path
 
 from bomc_bt.errors import BomcError
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 FOOTPRINT = ("fx0", "fy0", "fx1", "fy1")
+# the evidence a removal was decided on (version 3): misses counted, robot time last seen, merge
+EVIDENCE = ("misses", "seen", "merged_into")
+_ADDED_COLUMNS = {"nodes": [f"{c} REAL" for c in FOOTPRINT],
+                  "node_history": ["misses INTEGER", "seen REAL", "merged_into INTEGER"]}
 
 SCHEMA = """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
@@ -45,7 +49,7 @@ CREATE TABLE node_history (
     seq INTEGER PRIMARY KEY AUTOINCREMENT, id INTEGER NOT NULL, session INTEGER NOT NULL,
     stamp REAL NOT NULL, kind TEXT NOT NULL, category TEXT NOT NULL,
     x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, confidence REAL NOT NULL,
-    px REAL, py REAL, pz REAL);
+    px REAL, py REAL, pz REAL, misses INTEGER, seen REAL, merged_into INTEGER);
 CREATE INDEX node_history_session ON node_history (session);
 CREATE TABLE sessions (
     number INTEGER PRIMARY KEY, started_stamp REAL, started_wall TEXT NOT NULL,
@@ -89,11 +93,13 @@ def open_schema(db: sqlite3.Connection, path: Path, readonly: bool) -> None:
         missing = ", ".join(sorted(TABLES - tables))
         raise BomcError(f"not a bomc site store (missing tables: {missing})", path)
     rows = db.execute("SELECT version FROM schema_version").fetchall()
-    if len(rows) == 1 and rows[0][0] == 1:
-        if readonly:
-            raise BomcError("a version 1 store is upgraded by the next `bomc monitor`; it cannot be read "
-                            "before that", path, "schema_version")
-        _script(db, "BEGIN IMMEDIATE;" + "".join(f"ALTER TABLE nodes ADD COLUMN {c} REAL;" for c in FOOTPRINT)
+    if len(rows) == 1 and rows[0][0] == 1 and readonly:
+        raise BomcError("a version 1 store is upgraded by the next `bomc monitor`; it cannot be read "
+                        "before that", path, "schema_version")
+    if len(rows) == 1 and rows[0][0] == 2 and readonly:
+        return  # read as it is: its history has no removal evidence (has_evidence is False)
+    if len(rows) == 1 and rows[0][0] in (1, 2):
+        _script(db, "BEGIN IMMEDIATE;" + "".join(_missing_columns(db))
                 + f"UPDATE schema_version SET version = {SCHEMA_VERSION};COMMIT;")
         rows = [(SCHEMA_VERSION,)]
     if len(rows) != 1 or rows[0][0] != SCHEMA_VERSION:
@@ -102,6 +108,20 @@ def open_schema(db: sqlite3.Connection, path: Path, readonly: bool) -> None:
                         path, "schema_version")
     if not readonly:
         db.execute("PRAGMA journal_mode=WAL")
+
+
+def _missing_columns(db: sqlite3.Connection) -> list[str]:
+    """ALTER TABLE statements adding what versions 1 (footprints) and 2 (evidence) lack."""
+    out = []
+    for table, columns in _ADDED_COLUMNS.items():
+        have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
+        out += [f"ALTER TABLE {table} ADD COLUMN {c};" for c in columns if c.split()[0] not in have]
+    return out
+
+
+def has_evidence(db: sqlite3.Connection) -> bool:
+    """Whether the history has the removal evidence columns (a version 2 store read-only has not)."""
+    return {r[1] for r in db.execute("PRAGMA table_info(node_history)")} >= set(EVIDENCE)
 
 
 def _script(db: sqlite3.Connection, script: str) -> None:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bomc_bt import cli, run
-from bomc_bt.change_evaluation import net_changes, raw_event_counts, score_changes, true_changes
+from bomc_bt.change_evaluation import raw_event_counts, reported_changes, score_changes, true_changes
 from bomc_bt.config import Config
 from bomc_bt.evaluate_changes import evaluate_changes
 from bomc_bt.graph import AssociationParams, Event, Node
@@ -36,9 +36,18 @@ def ev(kind: str, i: int, cat: str, x: float, y: float = 0.0, session: int = 2) 
     return Event(kind, i, cat, np.array([x, y, 0.0]), session, 10.0)
 
 
+def pass_two(nodes_before, nodes_after, events, threshold=d07):
+    """Net changes of pass 2: session 1 added ``nodes_before``, pass 2 wrote ``events`` and
+    left ``nodes_after`` present (checked: the replay must agree)."""
+    history = [Event("added", n.id, n.category, n.position, 1, 0.0) for n in nodes_before] + list(events)
+    last = {e.node_id: e for e in history}
+    assert {i for i, e in last.items() if e.kind != "removed"} == {n.id for n in nodes_after}
+    return reported_changes(history, 1, threshold)
+
+
 def score(truth_before, truth_after, nodes_before, nodes_after, events, threshold=d07):
     truth = true_changes(truth_before, truth_after, threshold)
-    net = net_changes(nodes_before, nodes_after, events, threshold)
+    net = pass_two(nodes_before, nodes_after, events, threshold)
     return score_changes(truth, net, threshold, 2, 1, raw_event_counts(events))
 
 
@@ -138,7 +147,8 @@ def test_thresholds_are_the_categories_association_distances():
     # the same cut on the map's side, and gating: a removal 1.2 m off counts for a table, not for a chair
     nodes = [node(1, "door", 0.0), node(2, "table", 10.0), node(3, "chair", 20.0)]
     moved = [node(1, "door", 0.4), node(2, "table", 11.0)]
-    net = net_changes(nodes, moved, [ev("updated", 1, "door", 0.4), ev("updated", 2, "table", 11.0)], per_category)
+    net = pass_two(nodes, [*moved, nodes[2]], [ev("updated", 1, "door", 0.4), ev("updated", 2, "table", 11.0)],
+                   per_category)
     assert [(c.kind, c.key) for c in net] == [("moved", 1)]
     gone = {"table-9": obj("table", 30.0), "chair-9": obj("chair", 40.0)}
     r = score(gone, {}, [node(5, "table", 31.2), node(6, "chair", 41.2)], [],
@@ -235,6 +245,15 @@ def test_lab_b_session_2_reports_its_removals_in_bomc_evaluate(shared, tmp_path,
     for kind in ("removed", "added", "moved", "overall"):
         s = changes[kind]
         assert s["tp"] + s["fn"] == s["true"] and s["tp"] + s["fp"] == s["net"]
+    # the session report tells the operator the same net changes, each with its evidence
+    report = json.loads((site / "sessions" / "2" / "report.json").read_text())["changes"]
+    assert report["since_session"] == 1
+    assert report["counts"] == {kind: changes[kind]["net"] for kind in ("removed", "added", "moved")}
+    removed = [c for c in report["nodes"] if c["kind"] == "removed"]
+    assert removed and all(c["missing_frames"] >= config.association.confirm_misses for c in removed)
+    markdown = (site / "sessions" / "2" / "report.md").read_text()
+    assert "## Changes since session 1" in markdown
+    assert all(f"{c['category']} #{c['node']}" in markdown for c in report["nodes"])
     assert cli.main(["evaluate", "--world", str(world), "--site", str(site), "--session", "2"]) == 0
     table = capsys.readouterr().out
     assert "changes since session 1" in table and table.index("overall") < table.index("changes since")

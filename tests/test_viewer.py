@@ -34,7 +34,7 @@ from bomc_bt.mission import Progress
 from bomc_bt.site import write_json
 from bomc_bt.store import SiteStore
 from bomc_bt.tree.runner import TreeRunner
-from bomc_bt.viewer import Server, SiteView, StateStore, ViewerHook, ViewerParams, diff_nodes, serve_site
+from bomc_bt.viewer import Server, SiteView, StateStore, ViewerHook, ViewerParams, serve_site
 from bomc_bt.viewer.live import PathTracker
 from bomc_bt.viewer.sections import blackboard_section, category_hex
 from bomc_bt.viewer.server import parse_event_id
@@ -395,11 +395,29 @@ def test_site_view_diffs_sessions_by_id(tmp_path):
         view.diff(1, 7)
 
 
-def test_small_drift_is_not_a_move():
-    a = [Node(1, "chair", [0, 0, 0], 0.9, 1, 1)]
-    b = [Node(1, "chair", [0.2, 0, 0], 0.9, 1, 2)]
-    assert diff_nodes(a, b, moved_distance=0.5)["moved"] == []
-    assert ids(diff_nodes(a, b, moved_distance=0.5, moved_ids=[1])["moved"]) == [1]
+def test_site_diff_is_the_net_change_with_its_evidence(tmp_path):
+    view = SiteView(make_site(tmp_path))
+    d = view.diff(1, 2)
+    removed = d["removed"][0]
+    assert removed["id"] == 2 and removed["text"].startswith("removed plant #2 at (5.00, -1.00)")
+    assert d["moved"][0]["distance"] == pytest.approx(2.06, abs=0.01) and d["moved"][0]["evidence"]["events"] == 1
+    back = view.diff(2, 1)  # read backwards: the plant comes back, the lamp goes, the chair returns
+    assert (ids(back["added"]), ids(back["removed"]), ids(back["moved"])) == ([2], [3], [0])
+    assert back["moved"][0]["from"] == [1.5, -1.0]
+
+
+def test_small_drift_and_a_flicker_are_no_change(tmp_path):
+    with SiteStore(tmp_path) as store:
+        chair = Node(1, "chair", [0, 0, 0], 0.9, 1, 1)
+        store.begin_session(1, {"stamp": 0.0})
+        store.record([Event("added", 1, "chair", np.zeros(3), 1, 1.0)], [chair])
+        store.end_session(1, "succeeded", {"stamp": 2.0})
+        store.begin_session(2, {"stamp": 0.0})
+        store.record([Event("removed", 1, "chair", np.zeros(3), 2, 1.0, misses=3),
+                      Event("moved", 1, "chair", np.array([0.2, 0, 0]), 2, 3.0, np.zeros(3))], [chair])
+        store.end_session(2, "succeeded", {"stamp": 4.0})
+    d = SiteView(tmp_path).diff(1, 2)
+    assert (d["added"], d["removed"], d["moved"]) == ([], [], [])
 
 
 def test_serving_a_folder_without_a_site_is_a_user_error(tmp_path):

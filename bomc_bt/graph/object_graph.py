@@ -46,6 +46,8 @@ class ObjectGraph:
         self._session: int | None = None
         self._changed: dict[int, Node] = {}
         self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
+        # robust: per node, frames of this process that expected it: [seen, missed, stamp of last seen counted]
+        self._record: dict[int, list[float]] = {}
         max_id = -1
         for node in nodes:
             max_id = max(max_id, node.id)
@@ -146,9 +148,13 @@ class ObjectGraph:
         self._changed[node.id] = node
         return self.report("added", node, session, stamp)
 
-    def remove(self, v: Node, session: int, stamp: float, merged: bool = False) -> Event:
-        """Take ``v`` off the graph. Unless it was ``merged`` into another node, it may come
-        back in this session as a move (:meth:`restore`)."""
+    def remove(self, v: Node, session: int, stamp: float, merged: bool = False,
+               merged_into: int | None = None) -> Event:
+        """Take ``v`` off the graph. Unless it was ``merged`` into another node (the node
+        ``merged_into``, when known), it may come back in this session as a move
+        (:meth:`restore`). The event carries the evidence: the misses that confirmed the
+        removal (0 for a merge) and when the node was last seen."""
+        merged = merged or merged_into is not None
         self.index.delete(v.id, v.category, v.position)
         del self.nodes[v.id]
         v.state = REMOVED
@@ -157,7 +163,11 @@ class ObjectGraph:
         self._pending.discard(v.id)
         self._last_miss.pop(v.id, None)
         self._changed[v.id] = v
-        return self.report("removed", v, session, stamp)
+        event = self.report("removed", v, session, stamp)
+        # a removal is decided on at least the frame that did not see it (Algorithm 2 counts no misses)
+        event.misses, event.last_seen = (0 if merged else max(v.misses, 1)), v.last_seen
+        event.merged_into = merged_into
+        return event
 
     def restore(self, v: Node, position: np.ndarray) -> None:
         """Bring back at ``position`` a node removed in this session: it had moved."""
@@ -192,10 +202,26 @@ class ObjectGraph:
         if last is not None and last[0] == session and stamp - last[1] < interval:
             return False
         v.misses += 1
+        self._record.setdefault(v.id, [0.0, 0.0, -math.inf])[1] += 1.0
         self._last_miss[v.id] = (session, stamp)
         self._pending.add(v.id)
         self._changed[v.id] = v
         return True
+
+    def count_seen(self, v: Node, stamp: float, interval: float) -> None:
+        """Count an expected frame that detected ``v``, at most one per ``interval`` seconds."""
+        record = self._record.setdefault(v.id, [0.0, 0.0, -math.inf])
+        if stamp - record[2] >= interval:
+            record[0] += 1.0
+            record[2] = stamp
+
+    def detection_rate(self, v: Node, prior: float, weight: float) -> float:
+        """How often the frames expected to see ``v`` did before its current run of misses
+        (counted hits and misses of this process), with ``weight`` frames' worth of
+        ``prior``: the rate a present object would show, against which the run is judged."""
+        seen, missed, _ = self._record.get(v.id, (0.0, 0.0, 0.0))
+        missed = max(missed - v.misses, 0.0)
+        return (seen + prior * weight) / (seen + missed + weight)
 
     def set_confidence(self, v: Node, confidence: float) -> None:
         """Replace ``v``'s confidence."""

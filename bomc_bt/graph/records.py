@@ -72,6 +72,11 @@ class Event:
     stamp: float
     previous: np.ndarray | None = None  # position before a move
     confidence: float = 0.0
+    # a removal's evidence (None on other events, and where it was not recorded): how many
+    # frames counted the node missing (0: merged), the robot time of the latest frame that saw it
+    misses: int | None = None
+    last_seen: float | None = None
+    merged_into: int | None = None  # a removal that folded a duplicate into this node
 
 
 @dataclass
@@ -85,6 +90,12 @@ class AssociationParams:
     per_category: dict[str, float] = field(default_factory=dict)  # [m] delta_c overrides, by category name
     mode: Literal["paper", "robust"] = "robust"  # [choice] "paper": Algorithm 2 as written; "robust": our extension
     confirm_misses: int = 3  # [count] robust: consecutive counted misses before a node is removed
+    # [-] robust: detection rate assumed for a node before frames show its own: at this rate
+    # confirm_misses misses remove it; a node seen in fewer of the frames that expected it
+    # needs as many more as keep the chance of a present object's removal the same
+    detection_prior: float = 0.8
+    detection_prior_weight: float = 2.0  # [count] robust: how many frames' worth the prior counts
+    max_misses: int = 12  # [count] robust: consecutive misses that remove any node, however rarely detected
     confirm_interval: float = 0.5  # [s] robust: robot time between two counted misses or two confirming sightings
     move_radius: float = 3.0  # [m] robust: how far a removed or pending object may have moved and keep its id
     position_smoothing: float = 0.3  # [-] robust: running-average weight of a new observation in a node's position
@@ -108,6 +119,10 @@ class AssociationParams:
             raise ValueError(f"mode must be 'paper' or 'robust', got {self.mode!r}")
         if self.confirm_misses < 1:
             raise ValueError("confirm_misses must be >= 1")
+        if not 0.0 < self.detection_prior < 1.0:
+            raise ValueError("detection_prior must be in (0, 1)")
+        if self.detection_prior_weight < 0 or self.max_misses < self.confirm_misses:
+            raise ValueError("detection_prior_weight must be >= 0 and max_misses >= confirm_misses")
         if self.confirm_interval < 0 or self.move_radius < 0 or self.report_distance < 0:
             raise ValueError("confirm_interval, move_radius and report_distance must be >= 0")
         if self.confirm_detections < 1 or self.tentative_ttl < 0:

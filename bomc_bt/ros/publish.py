@@ -4,7 +4,9 @@
   text label, coloured by category (a stable hash, so a category keeps its colour);
 * the current frontiers (build) and the traversal waypoints (monitor) as markers;
 * the tree as a text snapshot (``std_msgs/String``, the terminal view's lines);
-* change events of the graph as ``std_msgs/String`` JSON, one per event.
+* change events of the graph as ``std_msgs/String`` JSON, one per raw event while the pass
+  runs (for debugging), and at the end of the pass one summary (:func:`summary_json`): the
+  net change per node since the previous pass, with its evidence -- what the operator acts on.
 
 :class:`MissionPublisher` is a tick hook: it publishes every ``publish_period`` s of ROS
 time, so a fast tick rate never floods the network.
@@ -127,6 +129,13 @@ def event_json(event: Any) -> str:
     return json.dumps(payload)
 
 
+def summary_json(session: int, changes: dict[str, Any]) -> str:
+    """The end-of-pass message on the events topic: ``{"kind": "summary", "session": N,
+    "since_session": P, "counts": {...}, "changes": [...]}`` (records as the session report's)."""
+    return json.dumps({"kind": "summary", "session": int(session), "since_session": changes["since_session"],
+                       "counts": changes["counts"], "changes": changes["nodes"]})
+
+
 class MissionPublisher:
     """Tick hook: markers, the tree snapshot and new events, every ``publish_period`` s."""
 
@@ -147,13 +156,26 @@ class MissionPublisher:
         }
         self._next = -np.inf
         self._events_seen = 0
+        self._summary_sent = False
 
     def __call__(self, runner: Any) -> None:
         now = self.ctx.now()
-        if now < self._next:
+        ended = bool(self.ctx.outcome) and self.ctx.store is not None and not self._summary_sent
+        if now < self._next and not ended:
             return
         self._next = now + self.params.publish_period
         self.publish(runner.root)
+        if ended:  # the session was closed on this tick: the last raw events, then the summary
+            self.publish_summary()
+
+    def publish_summary(self) -> None:
+        """The pass's net changes, once, after its session was closed."""
+        from std_msgs.msg import String
+
+        from bomc_bt.report import changes_summary
+
+        self.pubs["events"].publish(String(data=summary_json(self.ctx.session, changes_summary(self.ctx))))
+        self._summary_sent = True
 
     def publish(self, root: Any) -> None:
         from std_msgs.msg import String

@@ -6,12 +6,12 @@
 """
 
 from bomc_bt.viewer.live import ViewerHook
-from bomc_bt.viewer.sections import diff_nodes
+from bomc_bt.viewer.sections import change_json
 from bomc_bt.viewer.server import DEFAULT_PORT, Server, serve_live, serve_site
 from bomc_bt.viewer.site import SiteView
 from bomc_bt.viewer.store import StateStore, ViewerParams
 
 __all__ = [
-    "DEFAULT_PORT", "Server", "SiteView", "StateStore", "ViewerHook", "ViewerParams", "diff_nodes",
+    "DEFAULT_PORT", "Server", "SiteView", "StateStore", "ViewerHook", "ViewerParams", "change_json",
     "serve_live", "serve_site",
 ]

@@ -15,6 +15,7 @@ from bomc_bt.exploration.frontiers import Frontier
 from bomc_bt.graph import Event, Node
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import TraversalState
+from bomc_bt.net_changes import NetChange
 from bomc_bt.traversal import TraversalPlan
 from bomc_bt.tree.view import snapshot
 from bomc_bt.viewer.store import ViewerParams
@@ -147,24 +148,20 @@ def progress_section(ctx: Any, runner: Any) -> dict[str, Any]:
     return out
 
 
-def diff_nodes(before: Iterable[Node], after: Iterable[Node], moved_distance: float,
-               moved_ids: Iterable[int] = ()) -> dict[str, list[dict[str, Any]]]:
-    """Added / removed / moved between two graphs (ids are never reused, so ids decide).
+def change_json(change: NetChange, backwards: bool = False) -> dict[str, Any]:
+    """A net change for the site diff: where to draw it, what it was, and the operator's line.
 
-    A node is moved when a ``moved`` event touched it in between (``moved_ids``) or it is
-    more than ``moved_distance`` from where it was: small drift from refreshes is not a move.
+    ``backwards`` (the later session chosen first): an addition reads as a removal, a move
+    runs from its new place to its old one.
     """
-    old = {n.id: n for n in before}
-    new = {n.id: n for n in after}
-    marked = set(moved_ids)
-    moved = []
-    for nid in sorted(old.keys() & new.keys()):
-        a, b = old[nid].position, new[nid].position
-        dist = float(np.hypot(*(b[:2] - a[:2])))
-        if (nid in marked and dist > 1e-6) or dist > moved_distance:
-            moved.append({**node_json(new[nid]), "from": [rounded(a[0]), rounded(a[1])], "distance": rounded(dist, 2)})
-    return {
-        "added": [node_json(new[i]) for i in sorted(new.keys() - old.keys())],
-        "removed": [node_json(old[i]) for i in sorted(old.keys() - new.keys())],
-        "moved": moved,
-    }
+    kind, old, new = change.kind, change.old, change.new
+    if backwards:
+        kind, old, new = {"added": "removed", "removed": "added"}.get(kind, kind), new, old
+    at = new if new is not None else old
+    out = {"kind": kind, "id": int(change.node_id), "category": change.category, "x": rounded(at[0]),
+           "y": rounded(at[1]), "colour": category_hex(change.category), "text": change.describe(),
+           "evidence": change.to_json()}
+    if kind == "moved":
+        out["from"] = [rounded(old[0]), rounded(old[1])]
+        out["distance"] = rounded(change.distance, 2)
+    return out

@@ -9,20 +9,24 @@ from typing import Any
 import numpy as np
 
 from bomc_bt.errors import BomcError
-from bomc_bt.graph import Event, Node
-from bomc_bt.viewer.sections import diff_nodes, events_section, node_json, rounded
+from bomc_bt.graph import AssociationParams, Event, Node
+from bomc_bt.net_changes import net_changes
+from bomc_bt.viewer.sections import change_json, events_section, node_json, rounded
 from bomc_bt.viewer.store import Sections, StateStore, ViewerParams
 
 
 class SiteView:
     """A finished site read once: the map, the trajectory, each session's graph and events."""
 
-    def __init__(self, site_dir: str | Path, params: ViewerParams | None = None):
+    def __init__(self, site_dir: str | Path, params: ViewerParams | None = None,
+                 association: AssociationParams | None = None):
         from bomc_bt.grid import load_map
         from bomc_bt.site import Site
         from bomc_bt.store import SiteStore
 
         self.params = params or ViewerParams()
+        # how far a node must go to have moved: the association distance, as the report says
+        self.threshold = (association or AssociationParams()).distance
         self.site = Site(Path(site_dir))
         if not self.site.root.is_dir():
             raise BomcError("not a site directory", self.site.root)
@@ -64,16 +68,18 @@ class SiteView:
         }
 
     def diff(self, a: int, b: int) -> dict[str, Any]:
-        """What changed from the end of session ``a`` to the end of ``b`` (0: before any session)."""
+        """What changed from the end of session ``a`` to the end of ``b`` (0: before any session):
+        the net change per node (:mod:`bomc_bt.net_changes`) with its evidence; ``a`` > ``b``
+        reads it backwards."""
         for n in (a, b):
             if n not in self.graphs:
                 raise BomcError(f"no session {n} (sessions: {sorted(self.graphs)[1:]})", self.site.store_path,
                                 "session")
         lo, hi = min(a, b), max(a, b)
-        between = [e for n in range(lo + 1, hi + 1) for e in self.events.get(n, [])]
-        moved = {e.node_id for e in between if e.kind == "moved"}
-        changes = diff_nodes(self.graphs[a], self.graphs[b], self.params.moved_distance, moved)
-        return {"a": a, "b": b, **changes}
+        history = [e for n in sorted(self.events) if n <= hi for e in self.events[n]]
+        changes = net_changes(history, lo if lo > 0 else None, self.threshold)
+        items = [change_json(c, backwards=a > b) for c in changes]
+        return {"a": a, "b": b, **{k: [i for i in items if i["kind"] == k] for k in ("added", "removed", "moved")}}
 
     def _build(self) -> dict[str, Any]:
         from bomc_bt.site import read_json

@@ -43,7 +43,6 @@ class ViewerParams:
     max_frontier_cells: int = 4000  # frontier cells sent, subsampled evenly beyond this
     blackboard_keys: int = 200  # keys shown
     value_chars: int = 80  # characters of a blackboard value's repr
-    moved_distance: float = 0.5  # m: site diff calls a node moved beyond this (or on a moved event)
 
 
 class StateStore:

@@ -1,0 +1,131 @@
+"""Net changes: what changed per node between two points of the history, with the evidence.
+
+A monitor pass writes raw events frame by frame (a node may be removed when its misses are
+counted and found again a few seconds later); an operator wants to know what is different
+now from before. :func:`net_changes` replays the history to both ends of a period and
+compares each node that had an event in it:
+
+* absent -> present: ``added``; present -> absent: ``removed`` (at its last position);
+  present -> present farther than ``threshold(category)``: ``moved``;
+* anything else (removed and found again, moved away and back, a nudge) is no change;
+* a node folded into another as a duplicate (a removal with ``merged_into``) is no change
+  either: the object is still there, under the other node's id.
+
+Each :class:`NetChange` carries its evidence: for a removal the frames that counted the
+object missing before it was taken off and when it was last seen; for a move how far it
+went; for every change how many raw events were behind it. The session report, the
+viewer's difference of two sessions, the ROS summary at the end of a pass and ``bomc
+evaluate``'s change scores all use this one function.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from bomc_bt.graph import Event
+
+NET_KINDS = ("removed", "added", "moved")
+
+
+@dataclass
+class NetChange:
+    """One node's change over a period. ``old`` is None for an addition, ``new`` for a removal."""
+
+    kind: str  # "removed" | "added" | "moved"
+    node_id: int
+    category: str
+    old: np.ndarray | None  # where it stood when the period began (a removal: where it was last)
+    new: np.ndarray | None  # where it stands at the end
+    distance: float  # m, old to new (0 unless moved)
+    missing_frames: int | None  # a removal: frames that counted it missing (None: not recorded)
+    last_seen: float | None  # a removal: robot time the pass last saw it (None: not in that pass)
+    session: int  # the session of the node's last event in the period (where last_seen is measured)
+    stamp: float  # robot time of that event
+    events: int  # raw events of the node in the period
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-able dict (positions and times rounded to cm and 0.1 s)."""
+        def xyz(p):
+            return None if p is None else [round(float(v), 2) for v in p]
+
+        return {"kind": self.kind, "node": self.node_id, "category": self.category, "old": xyz(self.old),
+                "new": xyz(self.new), "distance_m": round(self.distance, 2), "missing_frames": self.missing_frames,
+                "last_seen_s": None if self.last_seen is None else round(self.last_seen, 1),
+                "session": self.session, "stamp_s": round(self.stamp, 1), "events": self.events}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> NetChange:
+        """Back from :meth:`to_json` (a report read again, the viewer)."""
+        def xyz(p):
+            return None if p is None else np.array(p, dtype=float)
+
+        return cls(d["kind"], int(d["node"]), d["category"], xyz(d["old"]), xyz(d["new"]), float(d["distance_m"]),
+                   d["missing_frames"], d["last_seen_s"], int(d["session"]), float(d["stamp_s"]), int(d["events"]))
+
+    def describe(self) -> str:
+        """One line an operator reads: what, where, and why we think so."""
+        def at(p):
+            return f"({p[0]:.2f}, {p[1]:.2f})"
+
+        what = f"{self.category} #{self.node_id}"
+        if self.kind == "added":
+            text = f"added {what} at {at(self.new)}"
+        elif self.kind == "moved":
+            text = f"moved {what} {at(self.old)} -> {at(self.new)}, {self.distance:.2f} m"
+        else:
+            seen = "not seen this pass" if self.last_seen is None else f"last seen t={self.last_seen:.1f} s"
+            frames = "" if self.missing_frames is None else f"missing in {self.missing_frames} frames, "
+            text = f"removed {what} at {at(self.old)} ({frames}{seen})"
+        return text + ("" if self.events <= 1 else f" [{self.events} raw events]")
+
+
+def _replay(events: Sequence[Event]) -> dict[int, Event]:
+    """The last event of each node: its state (removed or present) and position."""
+    last: dict[int, Event] = {}
+    for e in events:
+        last[int(e.node_id)] = e
+    return last
+
+
+def net_changes(events: Sequence[Event], since: int | None,
+                threshold: Callable[[str], float]) -> list[NetChange]:
+    """The net change of every node over the sessions after ``since``, by kind then node id.
+
+    ``events``: the history in write order up to the end of the period (the store's
+    ``events(until=N)``); events of sessions up to ``since`` give the state the period
+    starts from (``since=None``: the empty map). ``threshold(category)``: how far a node
+    must have gone to have moved (the association distance: less is the same place).
+    """
+    before = _replay([e for e in events if since is not None and e.session <= since])
+    period = [e for e in events if since is None or e.session > since]
+    after = _replay(period)
+    counts: dict[int, int] = {}
+    for e in period:
+        counts[int(e.node_id)] = counts.get(int(e.node_id), 0) + 1
+    out = []
+    for nid in sorted(after):
+        b, a = before.get(nid), after[nid]
+        was, now = b is not None and b.kind != "removed", a.kind != "removed"
+        pos = np.asarray(a.position, dtype=float)
+        if was and now:
+            old = np.asarray(b.position, dtype=float)
+            distance = float(np.linalg.norm(pos - old))
+            if distance > threshold(a.category):
+                out.append(NetChange("moved", nid, a.category, old, pos, distance, None, None, a.session,
+                                     a.stamp, counts[nid]))
+        elif was and a.merged_into is None:
+            out.append(NetChange("removed", nid, a.category, pos, None, 0.0, a.misses, a.last_seen, a.session,
+                                 a.stamp, counts[nid]))
+        elif now and not was:
+            out.append(NetChange("added", nid, a.category, None, pos, 0.0, None, None, a.session, a.stamp,
+                                 counts[nid]))
+    return sorted(out, key=lambda c: (NET_KINDS.index(c.kind), c.node_id))
+
+
+def summarize(changes: Sequence[NetChange]) -> dict[str, int]:
+    """How many net changes of each kind (every kind listed)."""
+    return {k: sum(c.kind == k for c in changes) for k in NET_KINDS}
