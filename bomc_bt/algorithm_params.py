@@ -246,6 +246,10 @@ class ProjectionParams:
     # objects are small in the image and often missed, so their absence proves little. The
     # one camera reach every planner of views uses (Look Around, gap and refresh viewpoints).
     expect_range: float = 5.0
+    # [-] robust: share of a node's body (centre and inset footprint corners) a frame must show
+    # unoccluded for a miss to count: an object mostly hidden (a door leaf seen through its
+    # doorway) is missed by any detector, and its absence there proves nothing. 0: centre only
+    expect_visible: float = 0.6
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the
     # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
     # the middle of the points' spread on the floor (1st to 99th percentile). The mean of the
@@ -264,6 +268,8 @@ class ProjectionParams:
             raise ValueError("stride must be >= 1")
         if not self.max_depth > 0.0:
             raise ValueError("max_depth must be positive")
+        if not 0.0 <= self.expect_visible <= 1.0:
+            raise ValueError("expect_visible must be in [0, 1]")
         if self.box_range < 0.0:
             raise ValueError("box_range must be >= 0 (0: no boxes)")
         if self.fov_columns < 2:

@@ -20,8 +20,9 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.perception.expected import expected_nodes
 from bomc_bt.perception.frames import Detector, Segmenter
-from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon, visible
+from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon
 from bomc_bt.robot import RGBDFrame
 from bomc_bt.traversal import TraversalPlan
 
@@ -281,13 +282,7 @@ class Perception:
         polygon = fov_polygon(frame, self.params)
         self.coverage.add(polygon)
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
-        expected = candidates
-        if candidates and self.occlusion_check:
-            positions = np.array([n.position for n in candidates], dtype=float)
-            camera = frame.T_map_camera[:3, 3]
-            near = np.hypot(positions[:, 0] - camera[0], positions[:, 1] - camera[1]) <= self.params.expect_range
-            seen = visible(frame, positions) & near
-            expected = [n for n, v in zip(candidates, seen, strict=True) if v]
+        expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates
         events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
                                       in_view=[n.id for n in candidates])
         changed = self.graph.drain_changed()

@@ -14,6 +14,9 @@
   one per ``confirm_interval`` seconds of robot time (so a burst of frames at one spot
   counts once), and is removed only at ``confirm_misses`` consecutive misses. A single
   missed detection (motion blur, a person walking past) no longer deletes an object.
+  Misses are weighed by how often the frames that expected the node did see it
+  (:meth:`RobustPolicy.misses_needed`): an object the detector often misses from where
+  the robot passes needs a longer run of misses, so a flicker is not a removal.
 * *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in
   ``confirm_detections`` frames.
 * *No duplicates.* An unmatched observation within delta_c of a same-category node
@@ -23,7 +26,10 @@
   same-category node but within ``move_radius`` of a same-category node that was removed
   earlier in this session, or is pending removal (has misses), is taken to be that
   object moved: it keeps its id and the event is ``moved`` with the previous position.
-  Identity across a relocation is what lets a user ask "where did chair 12 go?".
+  Identity across a relocation is what lets a user ask "where did chair 12 go?". The
+  other order too: when an older node's absence is confirmed and a node of its category
+  new in this session stands within ``move_radius``, that node is folded into the old
+  one, which moves there (the robot saw the chair's new place before its old one).
   A wrong guess costs little: the object left behind gets a new id when it is seen.
 * *Updated events are sparse.* A refresh emits ``updated`` only the first time a node is
   matched in a session or when its position drifted more than ``report_distance`` since
@@ -36,6 +42,7 @@ off by the image edge has its centroid too low.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -93,7 +100,9 @@ class RobustPolicy:
             matched_obs.add(j)
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
         for vid in exp:
-            if vid not in matched_nodes:
+            if vid in matched_nodes:
+                graph.count_seen(graph.nodes[vid], stamp, self.params.confirm_interval)
+            else:
                 events.extend(self._miss(graph, graph.nodes[vid], session, stamp))
         placed: list[Node] = []  # nodes added or moved in this frame
         for j, o in enumerate(obs):
@@ -156,7 +165,7 @@ class RobustPolicy:
                 graph.add_observations(keep, drop.observations)
                 graph.set_confidence(keep, max(keep.confidence, drop.confidence))
                 graph.set_footprint(keep, union(keep.footprint, drop.footprint))
-                events.append(graph.remove(drop, session, stamp, merged=True))  # merged, never "moved" back
+                events.append(graph.remove(drop, session, stamp, merged_into=keep.id))  # never "moved" back
                 events.append(graph.report("updated", keep, session, stamp))
                 matched.add(keep.id)
         return events
@@ -179,9 +188,51 @@ class RobustPolicy:
 
     def _miss(self, graph: ObjectGraph, v: Node, session: int, stamp: float) -> list[Event]:
         """Count a miss of the expected, unmatched ``v``; its removal once confirmed."""
-        if graph.miss(v, session, stamp, self.params.confirm_interval) and v.misses >= self.params.confirm_misses:
+        if graph.miss(v, session, stamp, self.params.confirm_interval) and v.misses >= self.misses_needed(graph, v):
+            arrival = self._arrival(graph, v, session)
+            if arrival is not None:
+                return self._moved_to(graph, v, arrival, session, stamp)
             return [graph.remove(v, session, stamp)]
         return []
+
+    def _arrival(self, graph: ObjectGraph, v: Node, session: int) -> Node | None:
+        """A node of ``v``'s category new in this session, within ``move_radius`` of the
+        older ``v`` whose absence is now confirmed: most likely ``v``'s object, moved, seen
+        at its new place before its old place was checked (nearest, then lowest id)."""
+        if v.first_session >= session:
+            return None
+        near = [(d, n.id, n) for n, d in graph.within(v.category, v.position, self.params.move_radius)
+                if n.id != v.id and n.first_session == session]
+        return min(near, key=lambda t: t[:2])[2] if near else None
+
+    def _moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
+        """``v`` moved to where ``arrival`` stands: ``v`` keeps its id and takes the arrival's
+        place, size and sightings; the arrival is folded into it (no change of its own)."""
+        previous = v.position.copy()
+        graph.relocate(v, arrival.position.copy())
+        if self.extents.boxes:
+            graph.set_footprint(v, arrival.footprint)
+        graph.add_observations(v, arrival.observations)
+        graph.set_confidence(v, max(v.confidence, arrival.confidence))
+        graph.touch(v, session, arrival.last_seen if arrival.last_seen is not None else stamp)
+        merged = graph.remove(arrival, session, stamp, merged_into=v.id)
+        return [merged, graph.report("moved", v, session, stamp, previous)]
+
+    def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
+        """Consecutive counted misses that remove ``v``: ``confirm_misses`` for an object
+        detected as often as ``detection_prior`` says, more for one that the frames which
+        expected it often missed (a door leaf seen through its doorway, an object at the
+        edge of the camera's reach). A present object detected in a share p of the frames
+        is missed k times in a row with probability (1 - p)^k; k is chosen so that this
+        chance is no larger than at the prior rate with ``confirm_misses`` (at most ``max_misses``)."""
+        p = self.params
+        rate = graph.detection_rate(v, p.detection_prior, p.detection_prior_weight)
+        if rate >= p.detection_prior:
+            return p.confirm_misses
+        if rate <= 0.0:
+            return p.max_misses
+        need = math.ceil(p.confirm_misses * math.log(1.0 - p.detection_prior) / math.log(1.0 - rate) - 1e-9)
+        return int(min(max(p.confirm_misses, need), p.max_misses))
 
     def _move_candidate(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """Nearest same-category node removed this session or pending removal, within move_radius."""

@@ -1,0 +1,63 @@
+"""Which nodes a frame can deny: the evidence of absence a miss needs.
+
+A node that a frame does not detect counts a miss (robust association) only when the frame
+would have shown the object well: the node lies within ``projection.expect_range`` of the
+camera, and most of its body -- not only its centre -- projects into the image with no
+nearer surface in front of it. Testing the centre alone took a door leaf seen through its
+doorway at a grazing angle for "in plain view" when the corridor wall hid two thirds of
+it; the detector missed it three frames in a row and the node was removed, then found
+again two seconds later (issue 17: 10 of 55 nodes flipped in a static first pass). Such
+a view is no evidence either way.
+
+The body is sampled at the node's centroid height: its centre and, when the node has a
+floor footprint, the footprint's corners pulled ``_INSET`` towards the middle (the true
+outline is noisy and a corner against a wall must not read as hidden by it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from bomc_bt.algorithm_params import ProjectionParams
+from bomc_bt.graph import Node
+from bomc_bt.perception.projection import visible
+from bomc_bt.robot import RGBDFrame
+
+_INSET = 0.2  # share of the footprint's half-size the sampled corners lie inside it
+
+
+def body_samples(node: Node) -> np.ndarray:
+    """(k, 3) points on the node's object: its centre first, then its footprint's inset corners."""
+    centre = np.asarray(node.position, dtype=float).reshape(1, 3)
+    fp = node.footprint
+    if fp is None:
+        return centre
+    mid = np.array([(fp[0] + fp[2]) / 2.0, (fp[1] + fp[3]) / 2.0])
+    corners = np.array([[fp[0], fp[1]], [fp[2], fp[1]], [fp[2], fp[3]], [fp[0], fp[3]]])
+    corners = mid + (corners - mid) * (1.0 - _INSET)
+    z = np.full((4, 1), centre[0, 2])
+    return np.vstack([centre, np.hstack([corners, z])])
+
+
+def expected_nodes(frame: RGBDFrame, candidates: Sequence[Node], params: ProjectionParams) -> list[Node]:
+    """The ``candidates`` (nodes inside the field-of-view polygon) this frame is evidence about.
+
+    A node is expected when it lies within ``expect_range`` of the camera, its centre is
+    visible (:func:`visible`) and at least ``expect_visible`` of its body samples are.
+    """
+    if not candidates:
+        return []
+    samples = [body_samples(n) for n in candidates]
+    owner = np.concatenate([np.full(len(s), i) for i, s in enumerate(samples)])
+    points = np.vstack(samples)
+    camera = frame.T_map_camera[:3, 3]
+    seen = visible(frame, points)
+    counts = np.bincount(owner, minlength=len(candidates))
+    fraction = np.bincount(owner, weights=seen.astype(float), minlength=len(candidates)) / counts
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    centres = points[first]
+    near = np.hypot(centres[:, 0] - camera[0], centres[:, 1] - camera[1]) <= params.expect_range
+    keep = near & seen[first] & (fraction >= params.expect_visible)
+    return [n for n, k in zip(candidates, keep, strict=True) if k]
