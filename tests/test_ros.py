@@ -410,6 +410,44 @@ class _NavFailures:
         self._last = state
 
 
+class _EventsListener:
+    """Tree hook that subscribes to the events topic once the mission's node is up."""
+
+    def __init__(self):
+        self.messages: list[dict] = []
+        self._sub = None
+
+    def __call__(self, runner) -> None:
+        if self._sub is None:
+            import rospy
+            from std_msgs.msg import String
+
+            self._sub = rospy.Subscriber("/bomc/events", String, lambda m: self.messages.append(json.loads(m.data)))
+
+    def summary(self, timeout: float = 5.0) -> dict | None:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            found = [m for m in self.messages if m.get("kind") == "summary"]
+            if found:
+                return found[-1]
+            time.sleep(0.1)
+        return None
+
+
+def test_the_events_topic_ends_a_pass_with_its_net_changes(roscore, lab_b, tmp_path):
+    site = _copy_build(lab_b.ros, tmp_path / "site")
+    listener = _EventsListener()
+    assert _monitor_ros(roscore, site, hooks=[listener]).succeeded
+    summary = listener.summary()
+    assert summary is not None, "no summary on /bomc/events at the end of the pass"
+    report = json.loads((site / "sessions" / "1" / "report.json").read_text())["changes"]
+    assert summary["session"] == 1 and summary["since_session"] is None
+    assert summary["counts"] == report["counts"] and summary["changes"] == report["nodes"]
+    assert summary["counts"]["added"] > 0  # the first pass adds what it found
+    raw = [m for m in listener.messages if m.get("kind") != "summary"]
+    assert raw and listener.messages[-1]["kind"] == "summary"  # raw events during the pass, summary last
+
+
 def test_move_base_abort_goes_through_the_retry_and_the_pass_completes(roscore, lab_b, tmp_path):
     site = _copy_build(lab_b.ros, tmp_path / "site")
     failures = _NavFailures()
