@@ -250,6 +250,9 @@ class ProjectionParams:
     # unoccluded for a miss to count: an object mostly hidden (a door leaf seen through its
     # doorway) is missed by any detector, and its absence there proves nothing. 0: centre only
     expect_visible: float = 0.6
+    # [m] robust: a miss within this range of the camera counts fully; farther it weighs less,
+    # down to nothing at expect_range (far objects are small in the image and often missed)
+    miss_full_range: float = 2.5
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the
     # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
     # the middle of the points' spread on the floor (1st to 99th percentile). The mean of the
@@ -268,6 +271,8 @@ class ProjectionParams:
             raise ValueError("stride must be >= 1")
         if not self.max_depth > 0.0:
             raise ValueError("max_depth must be positive")
+        if self.miss_full_range < 0.0:
+            raise ValueError("miss_full_range must be >= 0")
         if not 0.0 <= self.expect_visible <= 1.0:
             raise ValueError("expect_visible must be in [0, 1]")
         if self.box_range < 0.0:

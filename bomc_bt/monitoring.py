@@ -20,7 +20,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.perception.expected import expected_nodes
+from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon
 from bomc_bt.robot import RGBDFrame
@@ -283,8 +283,9 @@ class Perception:
         self.coverage.add(polygon)
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
         expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates
+        weights = miss_weights(frame, expected, self.params) if self.occlusion_check else None
         events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
-                                      in_view=[n.id for n in candidates])
+                                      in_view=[n.id for n in candidates], miss_weights=weights)
         changed = self.graph.drain_changed()
         if self.store is not None and (events or changed):
             self.store.record(events, changed)

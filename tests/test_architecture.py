@@ -29,6 +29,7 @@ ALGORITHM_MODULES = (
     "bomc_bt.graph",
     "bomc_bt.evaluation",
     "bomc_bt.change_evaluation",
+    "bomc_bt.net_changes",
     "bomc_bt.planner",
     "bomc_bt.path_smoothing",
     "bomc_bt.polyline",

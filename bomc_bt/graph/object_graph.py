@@ -20,6 +20,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from bomc_bt.graph.association import AssociationPolicy
+from bomc_bt.graph.evidence import MissEvidence
 from bomc_bt.graph.geometry import check_polygon
 from bomc_bt.graph.paper import PaperPolicy
 from bomc_bt.graph.records import PRESENT, REMOVED, AssociationParams, Event, Node, Observation
@@ -46,8 +47,7 @@ class ObjectGraph:
         self._session: int | None = None
         self._changed: dict[int, Node] = {}
         self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
-        # robust: per node, frames of this process that expected it: [seen, missed, stamp of last seen counted]
-        self._record: dict[int, list[float]] = {}
+        self.evidence = MissEvidence()  # robust: what the frames that expected each node showed
         max_id = -1
         for node in nodes:
             max_id = max(max_id, node.id)
@@ -109,16 +109,17 @@ class ObjectGraph:
     # -------------------------------------------------------------- association
     def associate(
         self, observations: list[Observation], expected: list[int], session: int, stamp: float,
-        in_view: list[int] | None = None,
+        in_view: list[int] | None = None, miss_weights: Sequence[float] | None = None,
     ) -> list[Event]:
         """Update the graph with one frame (Algorithm 2 or its robust extension); returns the events in order.
 
         ``expected``: nodes in the field of view that the frame can confirm or deny.
         ``in_view`` (robust mode): all nodes inside the field-of-view polygon, hidden ones
         included; only these may be folded into an observed node as hidden duplicates.
-        Nodes in neither list are never touched.
+        Nodes in neither list are never touched. ``miss_weights`` (robust mode): per
+        expected node, how much a miss of it in this frame weighs (1: a clear, near view).
         """
-        return self.policy.associate(self, observations, expected, session, stamp, in_view)
+        return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights)
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.
@@ -162,6 +163,7 @@ class ObjectGraph:
             self._removed_now[v.id] = v
         self._pending.discard(v.id)
         self._last_miss.pop(v.id, None)
+        self.evidence.forget(v.id)
         self._changed[v.id] = v
         event = self.report("removed", v, session, stamp)
         # a removal is decided on at least the frame that did not see it (Algorithm 2 counts no misses)
@@ -190,6 +192,8 @@ class ObjectGraph:
         v.last_seen = stamp
         v.observations += 1
         if reset_misses:
+            if v.misses:
+                self.evidence.forget(v.id)
             v.misses = 0
             self._pending.discard(v.id)
             self._last_miss.pop(v.id, None)
@@ -202,26 +206,10 @@ class ObjectGraph:
         if last is not None and last[0] == session and stamp - last[1] < interval:
             return False
         v.misses += 1
-        self._record.setdefault(v.id, [0.0, 0.0, -math.inf])[1] += 1.0
         self._last_miss[v.id] = (session, stamp)
         self._pending.add(v.id)
         self._changed[v.id] = v
         return True
-
-    def count_seen(self, v: Node, stamp: float, interval: float) -> None:
-        """Count an expected frame that detected ``v``, at most one per ``interval`` seconds."""
-        record = self._record.setdefault(v.id, [0.0, 0.0, -math.inf])
-        if stamp - record[2] >= interval:
-            record[0] += 1.0
-            record[2] = stamp
-
-    def detection_rate(self, v: Node, prior: float, weight: float) -> float:
-        """How often the frames expected to see ``v`` did before its current run of misses
-        (counted hits and misses of this process), with ``weight`` frames' worth of
-        ``prior``: the rate a present object would show, against which the run is judged."""
-        seen, missed, _ = self._record.get(v.id, (0.0, 0.0, 0.0))
-        missed = max(missed - v.misses, 0.0)
-        return (seen + prior * weight) / (seen + missed + weight)
 
     def set_confidence(self, v: Node, confidence: float) -> None:
         """Replace ``v``'s confidence."""

@@ -24,8 +24,7 @@
   Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
 * *Moves keep their id.* An unmatched observation farther than delta_c from every
   same-category node but within ``move_radius`` of a same-category node that was removed
-  earlier in this session, or is pending removal (has misses), is taken to be that
-  object moved: it keeps its id and the event is ``moved`` with the previous position.
+  earlier in this session is taken to be that object moved: it keeps its id and the event is ``moved`` with the previous position.
   Identity across a relocation is what lets a user ask "where did chair 12 go?". The
   other order too: when an older node's absence is confirmed and a node of its category
   new in this session stands within ``move_radius``, that node is folded into the old
@@ -80,10 +79,11 @@ class RobustPolicy:
 
     def associate(
         self, graph: ObjectGraph, observations: Sequence[Observation], expected: Sequence[int], session: int,
-        stamp: float, in_view: Sequence[int] | None = None,
+        stamp: float, in_view: Sequence[int] | None = None, miss_weights: Sequence[float] | None = None,
     ) -> list[Event]:
         """Match, refresh, count misses, place the unmatched, fold hidden duplicates."""
         self.tentative.begin(session)
+        weights = dict(zip(expected, miss_weights, strict=True)) if miss_weights is not None else {}
         obs, exp = observations, graph.begin(session, expected)
         events: list[Event] = []
         near = self._near(graph, obs)  # one vectorised pass, graph as it stood at the frame's start
@@ -101,9 +101,9 @@ class RobustPolicy:
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
         for vid in exp:
             if vid in matched_nodes:
-                graph.count_seen(graph.nodes[vid], stamp, self.params.confirm_interval)
-            else:
-                events.extend(self._miss(graph, graph.nodes[vid], session, stamp))
+                graph.evidence.seen(vid, stamp, self.params.confirm_interval)
+            elif weights.get(vid, 1.0) > 0.0:
+                events.extend(self._miss(graph, graph.nodes[vid], session, stamp, weights.get(vid, 1.0)))
         placed: list[Node] = []  # nodes added or moved in this frame
         for j, o in enumerate(obs):
             if j in matched_obs or len(near[j][0]) or near_any(o, placed, self.gate(o), graph.index.scale):
@@ -186,9 +186,12 @@ class RobustPolicy:
             return [graph.report("updated", v, session, stamp)]
         return []
 
-    def _miss(self, graph: ObjectGraph, v: Node, session: int, stamp: float) -> list[Event]:
-        """Count a miss of the expected, unmatched ``v``; its removal once confirmed."""
-        if graph.miss(v, session, stamp, self.params.confirm_interval) and v.misses >= self.misses_needed(graph, v):
+    def _miss(self, graph: ObjectGraph, v: Node, session: int, stamp: float, weight: float) -> list[Event]:
+        """Count a miss of the expected, unmatched ``v`` (weighing ``weight``); its removal
+        once the run of misses weighs ``misses_needed``."""
+        if not graph.miss(v, session, stamp, self.params.confirm_interval):
+            return []
+        if graph.evidence.missed(v.id, weight) >= self.misses_needed(graph, v) - 1e-9:
             arrival = self._arrival(graph, v, session)
             if arrival is not None:
                 return self._moved_to(graph, v, arrival, session, stamp)
@@ -226,7 +229,7 @@ class RobustPolicy:
         is missed k times in a row with probability (1 - p)^k; k is chosen so that this
         chance is no larger than at the prior rate with ``confirm_misses`` (at most ``max_misses``)."""
         p = self.params
-        rate = graph.detection_rate(v, p.detection_prior, p.detection_prior_weight)
+        rate = graph.evidence.detection_rate(v.id, p.detection_prior, p.detection_prior_weight)
         if rate >= p.detection_prior:
             return p.confirm_misses
         if rate <= 0.0:
@@ -235,10 +238,12 @@ class RobustPolicy:
         return int(min(max(p.confirm_misses, need), p.max_misses))
 
     def _move_candidate(self, graph: ObjectGraph, o: Observation) -> Node | None:
-        """Nearest same-category node removed this session or pending removal, within move_radius."""
+        """Nearest same-category node removed this session, within move_radius. (A node with
+        only some misses is no candidate: one missed frame let a neighbouring chair, seen
+        for the first time, take its id. Its absence confirmed, :meth:`_arrival` still makes
+        it a move.)"""
         best: tuple[float, int, Node] | None = None
-        pending = (graph.nodes[i] for i in graph.pending())
-        for v in (*graph.removed_this_session(), *pending):
+        for v in graph.removed_this_session():
             if v.category != o.category:
                 continue
             d = float(np.linalg.norm((v.position - o.position) * graph.index.scale))

@@ -9,6 +9,11 @@ it; the detector missed it three frames in a row and the node was removed, then 
 again two seconds later (issue 17: 10 of 55 nodes flipped in a static first pass). Such
 a view is no evidence either way.
 
+How much a miss weighs (:func:`miss_weights`): 1 within ``projection.miss_full_range``
+of the camera, falling linearly to nothing at ``expect_range``. Any detector misses far
+objects more often (fewer pixels, more depth noise); three far misses in a row happen to
+a present object, three near ones rarely.
+
 The body is sampled at the node's centroid height: its centre and, when the node has a
 floor footprint, the footprint's corners pulled ``_INSET`` towards the middle (the true
 outline is noisy and a corner against a wall must not read as hidden by it).
@@ -61,3 +66,16 @@ def expected_nodes(frame: RGBDFrame, candidates: Sequence[Node], params: Project
     near = np.hypot(centres[:, 0] - camera[0], centres[:, 1] - camera[1]) <= params.expect_range
     keep = near & seen[first] & (fraction >= params.expect_visible)
     return [n for n, k in zip(candidates, keep, strict=True) if k]
+
+
+def miss_weights(frame: RGBDFrame, nodes: Sequence[Node], params: ProjectionParams) -> list[float]:
+    """Per expected node, how much its absence from this frame weighs (see the module docstring)."""
+    if not nodes:
+        return []
+    camera = frame.T_map_camera[:3, 3]
+    xy = np.array([n.position[:2] for n in nodes], dtype=float)
+    distance = np.hypot(xy[:, 0] - camera[0], xy[:, 1] - camera[1])
+    span = params.expect_range - params.miss_full_range
+    if span <= 0.0:
+        return [1.0] * len(nodes)
+    return np.clip((params.expect_range - distance) / span, 0.0, 1.0).tolist()

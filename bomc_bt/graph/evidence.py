@@ -1,0 +1,62 @@
+"""The evidence of absence robust association weighs before it removes a node.
+
+Per node, in this process only (a new pass starts from the prior): how many frames that
+expected the node saw it, how much miss weight piled up before the current run of misses,
+and the weight of that run. A miss weighs 1 when the frame had a clear, near view of the
+node and less farther away (see :func:`bomc_bt.perception.expected.miss_weights`); a
+detection ends the run and adds it to the node's record of misses. Robust association
+(:meth:`bomc_bt.graph.robust.RobustPolicy.misses_needed`) compares the run with what the
+node's own detection rate makes convincing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass
+class DetectionRecord:
+    seen: float = 0.0  # expected frames that detected the node (at most one per interval)
+    missed: float = 0.0  # miss weight before the current run of misses
+    run: float = 0.0  # miss weight of the current run
+    last_seen: float = -math.inf  # robot time of the last counted detection
+
+
+class MissEvidence:
+    """Detection records of the graph's nodes."""
+
+    def __init__(self) -> None:
+        self._records: dict[int, DetectionRecord] = {}
+
+    def seen(self, node_id: int, stamp: float, interval: float) -> None:
+        """An expected frame detected the node: count it (once per ``interval``), end the run."""
+        r = self._records.setdefault(node_id, DetectionRecord())
+        r.missed += r.run
+        r.run = 0.0
+        if stamp - r.last_seen >= interval:
+            r.seen += 1.0
+            r.last_seen = stamp
+
+    def missed(self, node_id: int, weight: float) -> float:
+        """A counted miss of ``weight``; returns the run's weight."""
+        r = self._records.setdefault(node_id, DetectionRecord())
+        r.run += weight
+        return r.run
+
+    def run(self, node_id: int) -> float:
+        r = self._records.get(node_id)
+        return 0.0 if r is None else r.run
+
+    def forget(self, node_id: int) -> None:
+        """The node left the graph: its run is over."""
+        r = self._records.get(node_id)
+        if r is not None:
+            r.missed += r.run
+            r.run = 0.0
+
+    def detection_rate(self, node_id: int, prior: float, weight: float) -> float:
+        """How often the frames that expected the node saw it before its current run, with
+        ``weight`` frames' worth of ``prior``: the rate a present object would show."""
+        r = self._records.get(node_id, DetectionRecord())
+        return (r.seen + prior * weight) / (r.seen + r.missed + weight)
