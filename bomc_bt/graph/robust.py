@@ -24,7 +24,8 @@
   Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
 * *Moves keep their id.* An unmatched observation farther than delta_c from every
   same-category node but within ``move_radius`` of a same-category node that was removed
-  earlier in this session is taken to be that object moved: it keeps its id and the event is ``moved`` with the previous position.
+  earlier in this session is taken to be that object moved: it keeps its id and the
+  event is ``moved`` with the previous position.
   Identity across a relocation is what lets a user ask "where did chair 12 go?". The
   other order too: when an older node's absence is confirmed and a node of its category
   new in this session stands within ``move_radius``, that node is folded into the old
