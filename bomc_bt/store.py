@@ -42,10 +42,12 @@ from typing import Any
 import numpy as np
 
 from bomc_bt.errors import BomcError
-from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
+from bomc_bt.graph import OPERATOR_KINDS, PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
+from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.store_schema import SCHEMA, connect, open_schema
 
 FILENAME = "site.db"
+_OPERATOR_SQL = "(" + ", ".join(f"'{k}'" for k in OPERATOR_KINDS) + ")"
 _SCHEMA = SCHEMA  # the schema text, for tests that write old versions of it
 
 
@@ -87,7 +89,7 @@ class SiteStore:
             self._db = connect(path, busy_timeout, readonly)
         try:
             with self._errors("open"):
-                open_schema(self._db, path, readonly)
+                self.version = open_schema(self._db, path, readonly)
         except BomcError:
             self._db.close()
             raise
@@ -172,7 +174,8 @@ class SiteStore:
                 raise BomcError(f"session {number} was never begun", self.path, "sessions")
             self._reconcile(db, number, stamp)
             counts = dict(db.execute(
-                "SELECT kind, COUNT(*) FROM node_history WHERE session=? GROUP BY kind", (number,)
+                f"SELECT kind, COUNT(*) FROM node_history WHERE session=? AND kind NOT IN {_OPERATOR_SQL}"
+                " GROUP BY kind", (number,)
             ).fetchall())
             present = db.execute("SELECT COUNT(*) FROM nodes WHERE state=?", (PRESENT,)).fetchone()[0]
             counts["present"] = present
@@ -221,11 +224,12 @@ class SiteStore:
         with self._transaction("record") as db:
             for e in events:
                 prev = (None, None, None) if e.previous is None else tuple(map(float, _xyz(e.previous)))
+                detail = None if e.detail is None else json.dumps(e.detail, default=_jsonable)
                 db.execute(
                     "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence,"
-                    " px, py, pz) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    " px, py, pz, detail) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (int(e.node_id), int(e.session), float(e.stamp), e.kind, e.category,
-                     *map(float, _xyz(e.position)), float(e.confidence), *prev),
+                     *map(float, _xyz(e.position)), float(e.confidence), *prev, detail),
                 )
             for n in nodes_changed:
                 box = (None,) * 4 if n.footprint is None else tuple(map(float, n.footprint))
@@ -239,11 +243,15 @@ class SiteStore:
                 db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
 
     def load_graph(self, params: AssociationParams) -> ObjectGraph:
-        """The live graph (present nodes); new ids continue past every id ever issued."""
+        """The live graph (present nodes) with the operator's edits it must respect; new ids
+        continue past every id ever issued."""
         nodes = self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
         top = self._query("SELECT MAX(m) FROM (SELECT MAX(id) AS m FROM nodes UNION ALL"
                           " SELECT MAX(id) FROM node_history)")[0][0]
-        return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1)
+        edited = self._events(f" WHERE id IN (SELECT id FROM node_history WHERE kind IN {_OPERATOR_SQL})"
+                              " ORDER BY seq", ())
+        return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1,
+                           edits=OperatorEdits.from_history(edited))
 
     def nodes(self, include_removed: bool = False) -> list[Node]:
         """The current node table (present nodes, or all ids ever issued)."""
@@ -263,38 +271,52 @@ class SiteStore:
 
         ``observations`` counts the node's add/update/move events (history does not keep
         every match) and ``misses`` is 0: both are bookkeeping, not part of the map.
+        Operator edits count from the pass they are filed under, the one after them
+        (:mod:`bomc_bt.site.edits`): the map that pass started from.
         """
         nodes: dict[int, Node] = {}
-        for e in self.events(until=session):
+        for e in self.events(until=session, operator=True):
             node = nodes.get(e.node_id)
             if e.kind == "added" or node is None:
                 nodes[e.node_id] = Node(e.node_id, e.category, e.position, e.confidence, e.session, e.session)
-                if e.kind == "removed":
+                if e.kind in ("removed", "deleted"):
                     nodes[e.node_id].state = REMOVED
                 continue
             node.position = e.position
             node.confidence = e.confidence
-            if e.kind == "removed":
+            node.category = e.category  # an operator's relabelling
+            if e.kind in ("removed", "deleted"):
                 node.state = REMOVED
-            else:
+            elif e.kind == "restored":
+                node.state = PRESENT
+            elif not e.by_operator:
                 node.state = PRESENT
                 node.last_session = e.session
                 node.observations += 1
         return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
 
-    def events(self, session: int | None = None, until: int | None = None) -> list[Event]:
-        """History in write order: of one ``session``, up to and including ``until``, or all."""
-        sql = "SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz FROM node_history"
+    def events(self, session: int | None = None, until: int | None = None, operator: bool = False) -> list[Event]:
+        """History in write order: of one ``session``, up to and including ``until``, or all.
+
+        The robot's events only, unless ``operator``: a pass's events are what it observed,
+        an operator's edits (:data:`~bomc_bt.graph.OPERATOR_KINDS`) are asked for apart.
+        """
+        where = [] if operator else [f"kind NOT IN {_OPERATOR_SQL}"]
+        args: tuple = ()
         if session is not None:
-            rows = self._query(sql + " WHERE session=? ORDER BY seq", (session,))
+            where, args = [*where, "session=?"], (session,)
         elif until is not None:
-            rows = self._query(sql + " WHERE session<=? ORDER BY seq", (until,))
-        else:
-            rows = self._query(sql + " ORDER BY seq")
+            where, args = [*where, "session<=?"], (until,)
+        return self._events((" WHERE " + " AND ".join(where) if where else "") + " ORDER BY seq", args)
+
+    def _events(self, tail: str, args: tuple) -> list[Event]:
+        detail = "detail" if self.version >= 3 else "NULL"
+        rows = self._query("SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz, "
+                           f"{detail} FROM node_history" + tail, args)
         return [
             Event(kind, nid, cat, np.array([x, y, z]), sess, stamp,
-                  None if px is None else np.array([px, py, pz]), conf)
-            for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz in rows
+                  None if px is None else np.array([px, py, pz]), conf, None if text is None else json.loads(text))
+            for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz, text in rows
         ]
 
     # ------------------------------------------------------------- progress

@@ -1,7 +1,7 @@
 """Opening ``site.db``: the schema, its version check and upgrade, and read-only connections.
 
-A writer (a monitor pass) opens the file read-write: an empty file gets the schema, a
-version 1 file is upgraded in place (see :mod:`bomc_bt.store`). A reader (``bomc
+A writer (a monitor pass) opens the file read-write: an empty file gets the schema, an
+older version is upgraded in place (see :mod:`bomc_bt.store`). A reader (``bomc
 evaluate``, ``bomc view``, a build checking whether the site has a graph) opens it
 read-only, so it works on a site nobody may write (a copy, an archive, ``chmod a-w``)
 and changes no byte of it. SQLite's WAL mode needs care there:
@@ -31,8 +31,13 @@ from pathlib import Path
 
 from bomc_bt.errors import BomcError
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
+READABLE_VERSIONS = (2, 3)  # a reader reads these as they are (version 2 has no event details)
 FOOTPRINT = ("fx0", "fy0", "fx1", "fy1")
+# Upgrades, in place, from each old version: the columns it lacks (table, column). Version 2
+# added the node footprints, version 3 the event details (operator edits, removal evidence).
+UPGRADES = {1: (("nodes", "fx0"), ("nodes", "fy0"), ("nodes", "fx1"), ("nodes", "fy1")),
+            2: (("node_history", "detail"),)}
 
 SCHEMA = """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
@@ -45,7 +50,7 @@ CREATE TABLE node_history (
     seq INTEGER PRIMARY KEY AUTOINCREMENT, id INTEGER NOT NULL, session INTEGER NOT NULL,
     stamp REAL NOT NULL, kind TEXT NOT NULL, category TEXT NOT NULL,
     x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, confidence REAL NOT NULL,
-    px REAL, py REAL, pz REAL);
+    px REAL, py REAL, pz REAL, detail TEXT);
 CREATE INDEX node_history_session ON node_history (session);
 CREATE TABLE sessions (
     number INTEGER PRIMARY KEY, started_stamp REAL, started_wall TEXT NOT NULL,
@@ -77,31 +82,54 @@ def _connect_ro(path: Path, busy_timeout: float, immutable: bool) -> sqlite3.Con
     return sqlite3.connect(uri, uri=True, timeout=busy_timeout, isolation_level=None, check_same_thread=False)
 
 
-def open_schema(db: sqlite3.Connection, path: Path, readonly: bool) -> None:
-    """Check (reader) or create / upgrade (writer) the schema of an open store."""
+def open_schema(db: sqlite3.Connection, path: Path, readonly: bool) -> int:
+    """Check (reader) or create / upgrade (writer) the schema of an open store; its version.
+
+    A writer upgrades an old store in place, one version at a time, in one transaction
+    (new columns are NULL: nothing already stored changes meaning). A reader takes a
+    version 2 store as it is: the event details it lacks read as None.
+    """
     tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     tables.discard("sqlite_sequence")
     if not tables and not readonly:
         db.execute("PRAGMA journal_mode=WAL")
         _script(db, f"BEGIN IMMEDIATE;{SCHEMA}INSERT INTO schema_version VALUES ({SCHEMA_VERSION});COMMIT;")
-        return
+        return SCHEMA_VERSION
     if not tables >= TABLES:
         missing = ", ".join(sorted(TABLES - tables))
         raise BomcError(f"not a bomc site store (missing tables: {missing})", path)
     rows = db.execute("SELECT version FROM schema_version").fetchall()
-    if len(rows) == 1 and rows[0][0] == 1:
-        if readonly:
-            raise BomcError("a version 1 store is upgraded by the next `bomc monitor`; it cannot be read "
-                            "before that", path, "schema_version")
-        _script(db, "BEGIN IMMEDIATE;" + "".join(f"ALTER TABLE nodes ADD COLUMN {c} REAL;" for c in FOOTPRINT)
+    found = rows[0][0] if len(rows) == 1 else None
+    if readonly and found in READABLE_VERSIONS:
+        return found
+    if readonly and found == 1:
+        raise BomcError("a version 1 store is upgraded by the next `bomc monitor`; it cannot be read "
+                        "before that", path, "schema_version")
+    if not readonly and found in UPGRADES:
+        _script(db, "BEGIN IMMEDIATE;" + _upgrade_sql(db, found)
                 + f"UPDATE schema_version SET version = {SCHEMA_VERSION};COMMIT;")
-        rows = [(SCHEMA_VERSION,)]
-    if len(rows) != 1 or rows[0][0] != SCHEMA_VERSION:
-        found = rows[0][0] if len(rows) == 1 else "none"
-        raise BomcError(f"unsupported site store schema version {found} (expected {SCHEMA_VERSION})",
-                        path, "schema_version")
+        found = SCHEMA_VERSION
+    if found != SCHEMA_VERSION:
+        raise BomcError(f"unsupported site store schema version {'none' if found is None else found} "
+                        f"(expected {SCHEMA_VERSION})", path, "schema_version")
     if not readonly:
         db.execute("PRAGMA journal_mode=WAL")
+    return found
+
+
+def _upgrade_sql(db: sqlite3.Connection, version: int) -> str:
+    """The ALTER statements that bring a store of ``version`` to the current schema
+    (a column already there is skipped)."""
+    statements = []
+    for step in range(version, SCHEMA_VERSION):
+        for table, column in UPGRADES[step]:
+            have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
+            if column not in have:
+                statements.append(f"ALTER TABLE {table} ADD COLUMN {column} {_TYPES[column]};")
+    return "".join(statements)
+
+
+_TYPES = {**dict.fromkeys(FOOTPRINT, "REAL"), "detail": "TEXT"}
 
 
 def _script(db: sqlite3.Connection, script: str) -> None:

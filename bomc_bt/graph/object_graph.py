@@ -21,6 +21,7 @@ import numpy as np
 
 from bomc_bt.graph.association import AssociationPolicy
 from bomc_bt.graph.geometry import check_polygon
+from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.graph.paper import PaperPolicy
 from bomc_bt.graph.records import PRESENT, REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.robust import RobustPolicy
@@ -35,8 +36,10 @@ def make_policy(params: AssociationParams) -> AssociationPolicy:
 class ObjectGraph:
     """The live object graph (present nodes) with a spatial index, a change log and a policy."""
 
-    def __init__(self, params: AssociationParams, nodes: Iterable[Node] = (), next_id: int | None = None):
+    def __init__(self, params: AssociationParams, nodes: Iterable[Node] = (), next_id: int | None = None,
+                 edits: OperatorEdits | None = None):
         self.params = params
+        self.edits = edits or OperatorEdits()  # the operator's corrections this graph respects
         self.policy = make_policy(params)
         self.nodes: dict[int, Node] = {}
         self.index = SpatialIndex(params.largest_distance(), np.array([1.0, 1.0, self.policy.vertical_weight]))
@@ -116,7 +119,15 @@ class ObjectGraph:
         included; only these may be folded into an observed node as hidden duplicates.
         Nodes in neither list are never touched.
         """
+        if self.edits:
+            observations = self.edits.relabel(observations, self.nodes, self.index.scale, self.gate)
         return self.policy.associate(self, observations, expected, session, stamp, in_view)
+
+    def deleted_by_operator(self, o: Observation) -> bool:
+        """Whether ``o`` may not start a node where the operator deleted one (module
+        :mod:`bomc_bt.graph.operator_edits`); the policies ask before adding or moving."""
+        return bool(self.edits.deleted) and self.edits.blocks(o, self.index.scale, self.gate(o),
+                                                              self.params.readd_confidence)
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.
@@ -157,7 +168,9 @@ class ObjectGraph:
         self._pending.discard(v.id)
         self._last_miss.pop(v.id, None)
         self._changed[v.id] = v
-        return self.report("removed", v, session, stamp)
+        event = self.report("removed", v, session, stamp)
+        event.detail = {"misses": int(v.misses), "merged": merged}  # the evidence, for `bomc changes`
+        return event
 
     def restore(self, v: Node, position: np.ndarray) -> None:
         """Bring back at ``position`` a node removed in this session: it had moved."""

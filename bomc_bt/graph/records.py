@@ -16,6 +16,9 @@ from bomc_bt.graph.footprints import box_or_none
 PRESENT = "present"
 REMOVED = "removed"
 EVENT_KINDS = ("added", "removed", "moved", "updated")
+# An operator's corrections (``bomc edit``), kept in the same history as the robot's events
+# but never counted as something a pass observed (see bomc_bt.site.edits).
+OPERATOR_KINDS = ("relabelled", "deleted", "restored", "noted")
 
 
 @dataclass
@@ -72,6 +75,13 @@ class Event:
     stamp: float
     previous: np.ndarray | None = None  # position before a move
     confidence: float = 0.0
+    # JSON-able evidence or an operator's words: {"misses": n} on a removal, {"text": ...,
+    # "from": ..., "after_session": n} on an operator event; None when there is nothing
+    detail: dict | None = None
+
+    @property
+    def by_operator(self) -> bool:
+        return self.kind in OPERATOR_KINDS
 
 
 @dataclass
@@ -97,6 +107,9 @@ class AssociationParams:
     # [m] robust: gap between a truncated view's box and a big object's footprint that still
     # touches it (about the width of what hides the rest: a chair in front of a table)
     footprint_touch: float = 0.5
+    # [-] a detection where the operator deleted an object of its category (within its gate)
+    # starts a node again only at this confidence or more (bomc_bt.graph.operator_edits)
+    readd_confidence: float = 0.95
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -122,6 +135,8 @@ class AssociationParams:
             raise ValueError("footprint_overlap must be in [0, 1] (0 turns it off)")
         if self.footprint_touch < 0:
             raise ValueError("footprint_touch must be >= 0")
+        if not 0.0 <= self.readd_confidence <= 1.0:
+            raise ValueError("readd_confidence must be in [0, 1]")
 
     def distance(self, category: str) -> float:
         """delta_c: the association distance of ``category``."""
