@@ -201,8 +201,8 @@ class SiteStore:
         for nid, cat, x, y, z, c, hx, hy, hz, hc in rows:
             if (x, y, z, c) != (hx, hy, hz, hc):
                 db.execute(
-                    "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence)"
-                    " VALUES (?, ?, ?, 'updated', ?, ?, ?, ?, ?)",
+                    "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence, detail)"
+                    " VALUES (?, ?, ?, 'updated', ?, ?, ?, ?, ?, '{\"reconciled\": true}')",
                     (nid, session, stamp, cat, x, y, z, c),
                 )
 

@@ -119,15 +119,10 @@ class ObjectGraph:
         included; only these may be folded into an observed node as hidden duplicates.
         Nodes in neither list are never touched.
         """
-        if self.edits:
+        if self.edits:  # the operator's corrections (bomc_bt.graph.operator_edits)
             observations = self.edits.relabel(observations, self.nodes, self.index.scale, self.gate)
+            observations = self.edits.ignore_deleted(observations, self, self.params.readd_confidence)
         return self.policy.associate(self, observations, expected, session, stamp, in_view)
-
-    def deleted_by_operator(self, o: Observation) -> bool:
-        """Whether ``o`` may not start a node where the operator deleted one (module
-        :mod:`bomc_bt.graph.operator_edits`); the policies ask before adding or moving."""
-        return bool(self.edits.deleted) and self.edits.blocks(o, self.index.scale, self.gate(o),
-                                                              self.params.readd_confidence)
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.
@@ -169,7 +164,8 @@ class ObjectGraph:
         self._last_miss.pop(v.id, None)
         self._changed[v.id] = v
         event = self.report("removed", v, session, stamp)
-        event.detail = {"misses": int(v.misses), "merged": merged}  # the evidence, for `bomc changes`
+        # the evidence, for `bomc changes`: frames that saw it missing (paper mode: the one that removed it)
+        event.detail = {"misses": 0 if merged else max(int(v.misses), 1), "merged": merged}
         return event
 
     def restore(self, v: Node, position: np.ndarray) -> None:

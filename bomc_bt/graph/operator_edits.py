@@ -13,14 +13,18 @@ association modes:
   this, the node would go unmatched, be removed after its misses, and the detector's label
   come back as a new node.
 * **A deleted node is not re-added at the same place** unless a later pass sees it again
-  with high confidence: an unmatched detection of its category (detected or operator's)
+  with high confidence. A detection of its category (detected or operator's) that lies
   within the detection's association gate (delta_c, ``association.default_distance`` /
-  ``per_category``, widened for big objects as in matching) of where the node was deleted
-  starts a node only when its confidence is at least ``association.readd_confidence``
-  ([-], detector score; 0.95 by default), in robust mode with ``confirm_detections``
-  such sightings (:meth:`OperatorEdits.blocks`). Edits take effect from the pass after
-  them, so every pass that sees them is a later session. A detection that matches an
-  existing node is never affected.
+  ``per_category``, widened for big objects as in matching) of where the node was
+  deleted, and nearer to that place than to any node of its category, is a sighting of
+  the deleted object: it is ignored -- it neither starts a node nor confirms a neighbour
+  (a cabinet beside a deleted look-alike would otherwise be dragged onto it) -- unless
+  its confidence is at least ``association.readd_confidence`` ([-], detector score; 0.95
+  by default). A confident one goes through association as usual (robust mode: it needs
+  ``confirm_detections`` such sightings) and, once a node of the category stands within
+  delta_c of the place again, the place is an ordinary part of the map
+  (:meth:`OperatorEdits.ignore_deleted`). Edits take effect from the pass after them, so
+  every pass that sees them is a later session.
 """
 
 from __future__ import annotations
@@ -28,10 +32,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from bomc_bt.graph.records import Event, Node, Observation
+
+if TYPE_CHECKING:
+    from bomc_bt.graph.object_graph import ObjectGraph
 
 Gate = Callable[[Observation], float]
 
@@ -98,11 +106,26 @@ class OperatorEdits:
                 out[j] = dataclasses.replace(o, category=nodes[best[1]].category)
         return out
 
-    def blocks(self, o: Observation, scale: np.ndarray, gate: float, readd_confidence: float) -> bool:
-        """Whether ``o`` may not start a node: it lies where the operator deleted one of its
-        category and is not confident enough to say the object is really there."""
-        if float(o.confidence) >= readd_confidence:
-            return False
-        return any(o.category in spot.categories
-                   and float(np.linalg.norm((spot.position - o.position) * scale)) <= gate
-                   for spot in self.deleted)
+    def ignore_deleted(self, observations: Sequence[Observation], graph: ObjectGraph,
+                       readd_confidence: float) -> list[Observation]:
+        """``observations`` less the sightings of deleted objects (the module's rule)."""
+        spots = [s for s in self.deleted if not self._back_on_map(s, graph)]
+        if not spots:
+            return list(observations)
+        return [o for o in observations
+                if float(o.confidence) >= readd_confidence or not self._sighting_of(o, spots, graph)]
+
+    @staticmethod
+    def _back_on_map(spot: DeletedSpot, graph: ObjectGraph) -> bool:
+        """A node of the spot's categories stands within delta_c of it: the object came back."""
+        return any(graph.within(c, spot.position, graph.threshold(c)) for c in spot.categories)
+
+    @staticmethod
+    def _sighting_of(o: Observation, spots: list[DeletedSpot], graph: ObjectGraph) -> bool:
+        """``o`` lies within its gate of a deleted spot of its category, nearer to it than
+        to any node of its category."""
+        scale = graph.index.scale
+        gate = graph.gate(o)
+        d_spot = min((float(np.linalg.norm((s.position - o.position) * scale)) for s in spots
+                      if o.category in s.categories), default=np.inf)
+        return d_spot <= gate and d_spot < graph.nearest(o.category, o.position)[1]

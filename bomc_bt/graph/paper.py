@@ -59,8 +59,7 @@ class PaperPolicy:
                                        gates, gates)
         added: list[Node] = []  # V' grows inside the loop: later observations see earlier additions
         for o, (ids, _) in zip(candidates, near, strict=True):
-            if len(ids) == 0 and not near_any(o, added, self.gate(o), graph.index.scale) \
-                    and not graph.deleted_by_operator(o):
+            if len(ids) == 0 and not near_any(o, added, self.gate(o), graph.index.scale):
                 events.append(graph.add(o, session, stamp))
                 added.append(graph.nodes[events[-1].node_id])
         return events

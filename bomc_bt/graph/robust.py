@@ -103,7 +103,7 @@ class RobustPolicy:
                 # a part of a known object, cut off by an occluder (see NodeExtents.touched_node)
                 events.extend(self._refresh(graph, v, o, session, stamp, restart=False))
                 continue
-            if graph.deleted_by_operator(o) or not self.tentative.confirmed(o, stamp, self.gate(o)):
+            if not self.tentative.confirmed(o, stamp, self.gate(o)):
                 continue
             moved = self._move_candidate(graph, o)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
