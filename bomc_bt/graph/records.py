@@ -107,8 +107,8 @@ class AssociationParams:
     # [m] robust: gap between a truncated view's box and a big object's footprint that still
     # touches it (about the width of what hides the rest: a chair in front of a table)
     footprint_touch: float = 0.5
-    # [-] a detection where the operator deleted an object of its category (within its gate)
-    # starts a node again only at this confidence or more (bomc_bt.graph.operator_edits)
+    # [-] a detection nearer to where the operator deleted an object of its category than to
+    # any node counts only at this confidence or more (bomc_bt.graph.operator_edits)
     readd_confidence: float = 0.95
 
     def __post_init__(self) -> None:
