@@ -21,8 +21,8 @@ association modes:
   (a cabinet beside a deleted look-alike would otherwise be dragged onto it) -- unless
   its confidence is at least ``association.readd_confidence`` ([-], detector score; 0.95
   by default). A confident one goes through association as usual (robust mode: it needs
-  ``confirm_detections`` such sightings) and, once a node of the category stands within
-  delta_c of the place again, the place is an ordinary part of the map
+  ``confirm_detections`` such sightings) and, once a node of the category added since
+  the deletion stands within delta_c of the place, the place is an ordinary part of the map
   (:meth:`OperatorEdits.ignore_deleted`). Edits take effect from the pass after them, so
   every pass that sees them is a later session.
 """
@@ -51,6 +51,7 @@ class DeletedSpot:
     node_id: int
     categories: frozenset[str]
     position: np.ndarray
+    session: int  # the first pass the deletion holds in
 
 
 @dataclass
@@ -80,8 +81,8 @@ class OperatorEdits:
                 deleted[e.node_id] = e
             elif e.kind == "restored":
                 deleted.pop(e.node_id, None)
-        spots = [DeletedSpot(nid, frozenset({first[nid], e.category}), np.asarray(e.position, dtype=float))
-                 for nid, e in sorted(deleted.items())]
+        spots = [DeletedSpot(nid, frozenset({first[nid], e.category}), np.asarray(e.position, dtype=float),
+                             e.session) for nid, e in sorted(deleted.items())]
         relabelled = {nid: first[nid] for nid, e in last.items()
                       if nid not in deleted and e.category != first[nid]}
         return cls(spots, relabelled)
@@ -117,8 +118,10 @@ class OperatorEdits:
 
     @staticmethod
     def _back_on_map(spot: DeletedSpot, graph: ObjectGraph) -> bool:
-        """A node of the spot's categories stands within delta_c of it: the object came back."""
-        return any(graph.within(c, spot.position, graph.threshold(c)) for c in spot.categories)
+        """A node of the spot's categories added since the deletion stands within delta_c of
+        it: the object came back (a neighbour that was there all along does not count)."""
+        return any(node.first_session >= spot.session for c in spot.categories
+                   for node, _ in graph.within(c, spot.position, graph.threshold(c)))
 
     @staticmethod
     def _sighting_of(o: Observation, spots: list[DeletedSpot], graph: ObjectGraph) -> bool:
