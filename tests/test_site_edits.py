@@ -17,7 +17,7 @@ from site_files import LAB_B, bomc, copy_site, error_line, snapshot
 from bomc_bt import run
 from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
 from bomc_bt.graph.operator_edits import OperatorEdits
-from bomc_bt.site import edit_site, open_site
+from bomc_bt.site import open_site
 from bomc_bt.store import SiteStore
 from bomc_bt.store_schema import SCHEMA
 from bomc_bt.world import load_world
