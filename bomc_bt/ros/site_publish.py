@@ -35,7 +35,7 @@ class PublishTopics:
 
 
 def publish_site(root: str | Path, topics: PublishTopics, session: int | None = None, duration: float = 0.0,
-                 association: AssociationParams | None = None, announce=print) -> int:
+                 association: AssociationParams | None = None, announce=None) -> int:
     """Latch the site's map and objects; keep the node up ``duration`` s (0: until Ctrl-C)."""
     with open_site(root, association) as site:
         grid = load_map(site.site.map_yaml)
@@ -55,12 +55,19 @@ def publish_site(root: str | Path, topics: PublishTopics, session: int | None = 
     fill_grid(msg, grid)
     map_pub.publish(msg)
     objects_pub.publish(graph_markers(objects, topics.frame, stamp))
-    announce(f"publishing the map ({grid.width}x{grid.height} cells) on {topics.map_topic} and {len(objects)} "
-             f"object(s) on {topics.objects_topic}, latched" + ("; Ctrl-C to stop" if duration <= 0 else ""))
+    (announce or _say)(f"publishing the map ({grid.width}x{grid.height} cells) on {topics.map_topic} and "
+                       f"{len(objects)} object(s) on {topics.objects_topic}, latched"
+                       + ("; Ctrl-C to stop" if duration <= 0 else ""))
     deadline = None if duration <= 0 else time.monotonic() + duration
     try:
         while not rospy.is_shutdown() and (deadline is None or time.monotonic() < deadline):
             time.sleep(0.1)
+    except KeyboardInterrupt:  # Ctrl-C is how an operator ends it: a success
+        pass
     finally:
         rospy.signal_shutdown("bomc publish ended")
     return 0
+
+
+def _say(line: str) -> None:
+    print(line, flush=True)  # a script waiting on the pipe reads it at once
