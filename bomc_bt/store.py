@@ -10,14 +10,19 @@ open the store with ``readonly=True`` and change no byte of the site
 Tables:
 
 * ``schema_version`` -- one row; a file with an unknown version or without our tables is
-  refused with a :class:`BomcError` instead of being guessed at. Version 1 stores (before
-  node footprints) are upgraded in place by adding the empty footprint columns, in one
-  transaction: nothing in them changes meaning.
+  refused with a :class:`BomcError` instead of being guessed at. Older stores are upgraded
+  in place by a writer, in one transaction, by adding empty columns (version 1 had no node
+  footprints, version 2 no event details): nothing in them changes meaning. A reader reads
+  a version 2 store as it is.
 * ``nodes`` -- the current state of every id ever issued (removed ones with state
   ``removed``), so the next id continues from the max id ever issued; with the floor
   footprint the association learned for it (NULL when unknown).
 * ``node_history`` -- every event, append-only; :meth:`SiteStore.graph_after` rebuilds
   the graph as it stood at the end of any session from it. Nothing is overwritten.
+  ``detail`` (JSON, may be NULL) holds a removal's evidence (misses, merged), marks the
+  rows an ended session writes to reconcile positions, and carries an operator's edit
+  (:data:`~bomc_bt.graph.OPERATOR_KINDS`, :mod:`bomc_bt.site.edits`), which
+  :meth:`SiteStore.events` leaves out unless asked: a pass's events are what it observed.
 * ``sessions`` -- one row per monitor pass: started/ended robot time and wall time (the
   wall time is for people reading the report, never for timing), outcome, counts, report.
 * ``progress`` -- small JSON key/value pairs for resuming a mission (next waypoint index).
