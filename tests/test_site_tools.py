@@ -179,6 +179,27 @@ def test_a_node_removed_and_found_again_in_one_pass_is_no_change(tmp_path):
     assert session.changes == []
 
 
+def test_a_move_across_a_pass_says_how_far_and_when_last_seen(tmp_path):
+    from bomc_bt.graph import AssociationParams, Observation
+
+    params = AssociationParams(confirm_detections=1, confirm_misses=1, confirm_interval=0.0)
+    with SiteStore(tmp_path) as store:
+        graph = store.load_graph(params)
+        store.begin_session(1, {"stamp": 0.0})
+        store.record(graph.associate([Observation("chair", [1.0, 1.0, 0.4], 0.9)], [], 1, 5.0), graph.drain_changed())
+        store.end_session(1, "succeeded", {"stamp": 9.0})
+        store.begin_session(2, {"stamp": 0.0})
+        store.record(graph.associate([], [0], 2, 3.0), graph.drain_changed())
+        store.record(graph.associate([Observation("chair", [3.0, 1.0, 0.4], 0.9)], [], 2, 4.0),
+                     graph.drain_changed())
+        store.end_session(2, "succeeded", {"stamp": 6.0})
+    with open_site(tmp_path) as reader:
+        (session,) = reader.changes(since=1)
+    (move,) = session.changes
+    assert (move.kind, move.node_id, move.moved_m) == ("moved", 0, pytest.approx(2.0))
+    assert (move.last_seen_session, move.last_seen_stamp) == (2, 4.0) and move.missing_frames is None
+
+
 # ------------------------------------------------------------------------ exports
 def test_export_writes_geojson_csv_and_a_png_that_its_world_file_places(sites, tmp_path):
     site, out = sites[2], tmp_path / "export"
