@@ -258,6 +258,11 @@ class SiteStore:
         return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1,
                            edits=OperatorEdits.from_history(edited))
 
+    def categories(self) -> list[str]:
+        """Every category a node of this store ever had, sorted."""
+        return [r[0] for r in self._query("SELECT category FROM node_history UNION SELECT category FROM nodes"
+                                          " ORDER BY 1")]
+
     def nodes(self, include_removed: bool = False) -> list[Node]:
         """The current node table (present nodes, or all ids ever issued)."""
         if include_removed:

@@ -9,12 +9,13 @@ neighbour is not dragged onto its place) and with confident ones (it comes back)
 from __future__ import annotations
 
 import sqlite3
+import subprocess
 
 import numpy as np
 import pytest
 from site_files import LAB_B, bomc, copy_site, error_line, snapshot
 
-from bomc_bt import run
+from bomc_bt import cli, run
 from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
 from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.site import open_site
@@ -36,6 +37,17 @@ def config(tmp, text: str):
 
 def chair(x: float, y: float, confidence: float = 0.9, category: str = "chair") -> Observation:
     return Observation(category, np.array([x, y, 0.45]), confidence, 300, 0.2)
+
+
+def bomc_here(capsys, *args: str) -> subprocess.CompletedProcess:
+    """``bomc ARGS`` in this process (no interpreter start-up): exit code, stdout, stderr."""
+    capsys.readouterr()
+    try:
+        code = cli.main(list(args))
+    except SystemExit as exc:  # argparse's own errors
+        code = exc.code
+    out = capsys.readouterr()
+    return subprocess.CompletedProcess(args, code, out.out, out.err)
 
 
 # ------------------------------------------------------------------ graph rules
@@ -138,10 +150,10 @@ def test_edits_are_operator_events_in_the_history(session_one, tmp_path):
     (("delete", "1", "now"), "unrecognized arguments"),
     (("rename", "1"), "invalid choice"),
 ])
-def test_bad_edits_are_one_line_exit_2_and_change_nothing(session_one, tmp_path, args, words):
+def test_bad_edits_are_one_line_exit_2_and_change_nothing(session_one, tmp_path, capsys, args, words):
     site = copy_site(session_one, tmp_path / "site")
     before = snapshot(site, mtimes=True)
-    assert words in error_line(bomc("edit", str(site), *args))
+    assert words in error_line(bomc_here(capsys, "edit", str(site), *args))
     assert snapshot(site, mtimes=True) == before
 
 

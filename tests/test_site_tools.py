@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from site_files import LAB_B, REPO, bomc, bomc_command, bomc_env, copy_site, error_line, snapshot
 
-from bomc_bt import run
+from bomc_bt import cli, run
 from bomc_bt.evaluate_changes import evaluate_changes
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, load_map
 from bomc_bt.site import Site, open_site
@@ -50,6 +50,17 @@ def sites(tmp_path_factory) -> dict[int, Path]:
     two = copy_site(one, root / "two")
     assert run.run_monitor(LAB_B, two, 2, seed=2, config=cfg, quiet=True).succeeded
     return {1: one, 2: two}
+
+
+def bomc_here(capsys, *args: str) -> subprocess.CompletedProcess:
+    """``bomc ARGS`` in this process (no interpreter start-up): exit code, stdout, stderr."""
+    capsys.readouterr()
+    try:
+        code = cli.main(list(args))
+    except SystemExit as exc:  # argparse's own errors
+        code = exc.code
+    out = capsys.readouterr()
+    return subprocess.CompletedProcess(args, code, out.out, out.err)
 
 
 def cli_json(*args: str):
@@ -122,8 +133,8 @@ def test_filters_by_session_category_and_distance(sites):
     (("--near", "1,2", "--radius", "-1"), "positive number"),
     (("--format", "xml"), "invalid choice"),
 ])
-def test_bad_query_input_is_one_line_and_exit_2(sites, args, words):
-    assert words in error_line(bomc("objects", str(sites[2]), *args))
+def test_bad_query_input_is_one_line_and_exit_2(sites, capsys, args, words):
+    assert words in error_line(bomc_here(capsys, "objects", str(sites[2]), *args))
 
 
 def test_queries_on_a_missing_site_or_one_without_a_graph(tmp_path):

@@ -136,6 +136,7 @@ class SiteReader:
         self.association = association or AssociationParams()
         self.store = SiteStore(self.site.store_path, readonly=True)
         self._sessions = {s.number: s for s in self.store.sessions()}
+        self._graphs: dict[int, list[Node]] = {}  # graph_after, replayed once per session
 
     def close(self) -> None:
         self.store.close()
@@ -153,7 +154,7 @@ class SiteReader:
 
     def categories(self) -> list[str]:
         """Every category a node of this site ever had."""
-        return sorted({e.category for e in self.store.events(operator=True)} | {n.category for n in self.store.nodes()})
+        return self.store.categories()
 
     def require_session(self, number: int, option: str = "--session") -> None:
         if number not in self._sessions:
@@ -216,8 +217,8 @@ class SiteReader:
 
     def _session_changes(self, session: int, history: list[Event]) -> SessionChanges:
         previous = max((n for n in self._sessions if n < session), default=None)
-        before = self.store.graph_after(previous) if previous is not None else []
-        after = self.store.graph_after(session)
+        before = self._graph_after(previous) if previous is not None else []
+        after = self._graph_after(session)
         robot = [e for e in history if e.session == session and not e.by_operator]
         out = SessionChanges(session, previous)
         sightings = _last_sightings([e for e in history if e.session <= session and not e.by_operator])
@@ -234,6 +235,12 @@ class SiteReader:
         out.edits = [OperatorEdit(e.session, e.kind, e.node_id, e.category, dict(e.detail or {}))
                      for e in history if e.session == session and e.by_operator]
         return out
+
+
+    def _graph_after(self, session: int) -> list[Node]:
+        if session not in self._graphs:
+            self._graphs[session] = self.store.graph_after(session)
+        return self._graphs[session]
 
 
 def check_near(near: tuple[float, float] | None, radius: float) -> None:
