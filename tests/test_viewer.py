@@ -493,7 +493,7 @@ def test_a_page_reconnects_to_a_restarted_server_and_gets_the_full_state(browser
     browser.open(first.url)
     browser.wait_for(f"{status_of('Old Root')} === 'running'")
     first.close()
-    browser.wait_for("document.body.dataset.connected === 'no'", what="the page to notice")
+    browser.wait_for("document.body.dataset.connected !== 'yes'", what="the page to notice")
     second = StateStore()
     second.update({"mode": "live", "tree": {"name": "New Root", "kind": "sequence", "type": "Sequence",
                                             "status": "success", "feedback": "", "children": []}})
