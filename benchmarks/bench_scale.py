@@ -8,7 +8,9 @@ monitor sessions the world defines, and prints per floor:
   reachable from the dock that the map holds (the world's own map is the truth);
 * per pass: simulated and wall time, path, the pass/build time ratio, object F1 (precision,
   recall), the net change events (added / removed / moved) against the true changes since
-  the previous pass, change F1 and phantom events.
+  the previous pass, change F1 and phantom events;
+* per pass, the missed objects by cause (:mod:`bomc_bt.miss_causes`): removed without
+  evidence, mislabelled, displaced, merged with a neighbour, never mapped.
 
 The baseline is the build measured in the same run: a pass's cost is its ratio to it
 (the paper: 35 min against 150 min, 0.23). Worlds are generated on the fly (seedable);
@@ -34,9 +36,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bomc_bt import run  # noqa: E402
 from bomc_bt.evaluate_changes import evaluate_changes  # noqa: E402
-from bomc_bt.evaluate_site import evaluate_session  # noqa: E402
+from bomc_bt.evaluate_site import evaluate_session, session_misses  # noqa: E402
 from bomc_bt.exploration.coverage import map_coverage, solid_mask  # noqa: E402
 from bomc_bt.grid import load_map  # noqa: E402
+from bomc_bt.miss_causes import CAUSES, cause_counts  # noqa: E402
 from bomc_bt.officegen import OfficeParams, generate_office  # noqa: E402
 from bomc_bt.world import load_world  # noqa: E402
 
@@ -54,6 +57,7 @@ class PassRow:
     true: dict[str, int]  # true changes by kind
     change_f1: float | None
     phantom: int
+    misses: dict[str, int] = field(default_factory=dict)  # false negatives by cause
 
 
 @dataclass
@@ -96,7 +100,7 @@ def measure_floor(name: str, world: Path, site: Path, sessions: int | None, conf
             n, result.sim_time, wall, float(report["path_length_m"]), objects.overall.f1 or 0.0,
             objects.overall.precision or 0.0, objects.overall.recall or 0.0,
             {k: s.mapped for k, s in changes.kinds.items()}, {k: s.gt for k, s in changes.kinds.items()},
-            changes.overall.f1, changes.phantom))
+            changes.overall.f1, changes.phantom, cause_counts(session_misses(world, site, n, config))))
         print(f"  {name} session {n}: {result.sim_time:.0f} s, F1 {row.passes[-1].f1:.3f}, "
               f"{wall:.0f} s wall", file=sys.stderr, flush=True)
     row.peak_rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
@@ -126,6 +130,12 @@ def print_table(rows: list[FloorRow]) -> None:
             print(f"| {r.name} | {p.session} | {p.sim_s:.0f} | {p.sim_s / r.build_sim_s:.2f} | {p.wall_s:.0f} "
                   f"| {p.path_m:.0f} | {p.f1:.3f} | {p.precision:.3f} | {p.recall:.3f} | {_changes(p)} | {cf1} "
                   f"| {p.phantom} |")
+    print()
+    print("| floor | pass | missed objects by cause: " + " | ".join(CAUSES) + " |")
+    print("| --- | ---: | " + " | ".join("---:" for _ in CAUSES) + " |")
+    for r in rows:
+        for p in r.passes:
+            print(f"| {r.name} | {p.session} | " + " | ".join(str(p.misses.get(c, 0)) for c in CAUSES) + " |")
 
 
 def main(argv: list[str] | None = None) -> int:
