@@ -97,6 +97,10 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--defaults", action="store_true", help="the code's defaults (config/defaults.yaml)")
     c.add_argument("--trees", action="store_true", help="the leaf parameters written in the shipped trees")
 
+    from bomc_bt.cli_replay import add_parser as add_replay
+
+    add_replay(sub)
+
     # Parsed by the bridge itself (main() hands it the rest of the line); listed for --help.
     sub.add_parser("sim-ros", add_help=False,
                    help="serve the simulator over ROS 1 for --ros (bomc sim-ros --help for its options)")
@@ -160,6 +164,10 @@ def _dispatch(args) -> int:
         return _mission(args)
     if args.command == "view":
         return _view(args)
+    if args.command == "replay":
+        from bomc_bt.cli_replay import replay
+
+        return replay(args)
     if args.command == "world":
         from bomc_bt.officegen.cli import generate_from_args
 
