@@ -119,7 +119,7 @@ def rate_label(rate: float | None, as_fast_as_possible: bool) -> str:
 
 def run_replay(bag_path: str | Path, site_dir: str | Path, session: int, config: Config, *,
                rate: float | None = None, as_fast_as_possible: bool = False, seed: int = 0,
-               clock: Any = None, problems: TextIO = sys.stderr, detector_wrapper: Any = None) -> ReplayResult:
+               clock: Any = None, problems: TextIO | None = None, detector_wrapper: Any = None) -> ReplayResult:
     """Replay ``bag_path`` into session ``session`` of ``site_dir`` (see the module doc).
 
     Everything is checked (arguments, config, the bag and its frames, the site) before
@@ -134,6 +134,7 @@ def run_replay(bag_path: str | Path, site_dir: str | Path, session: int, config:
     if rate is not None and (as_fast_as_possible or not 0 < rate <= 1000 or not math.isfinite(rate)):
         raise BomcError("must be a rate in frames per second in (0, 1000], without --as-fast-as-possible",
                         None, "--rate")
+    problems = problems or sys.stderr
     bag_path = Path(bag_path)
     robots = RosRobots()
     robots.prepare(config)
