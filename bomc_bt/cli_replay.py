@@ -35,7 +35,7 @@ def replay(args: argparse.Namespace) -> int:
     result = run_replay(Path(args.bag), args.site, args.session, config, rate=args.rate,
                         as_fast_as_possible=args.as_fast_as_possible, seed=args.seed)
     s, r = result.summary, result.summary["replay"]
-    print(f"session {args.session} {s['outcome']} (replay at {r['rate']}): {s['nodes']} nodes, "
+    print(f"session {args.session} {s['outcome']} (replayed, {r['rate']}): {s['nodes']} nodes, "
           f"events {s['events']}; frames processed {r['processed']}, dropped {r['dropped']}, "
           f"skipped {r['skipped']} of {r['frames_in_bag']}; not-model cost {r['not_model_ms_per_frame']} ms/frame")
     return 0

@@ -86,7 +86,7 @@ def report_markdown(s: dict[str, Any]) -> str:
         lines += [f"  - ({r['x']}, {r['y']}): {r['area_m2']} m²" for r in regions[:10]]
     r = s.get("replay")
     if r:
-        lines.append(f"- replayed from {r['bag']} at {r['rate']}: frames processed {r['processed']}, "
+        lines.append(f"- replayed from {r['bag']} ({r['rate']}): frames processed {r['processed']}, "
                      f"dropped {r['dropped']}, skipped {r['skipped']} (of {r['frames_in_bag']} in the bag); "
                      f"not-model cost {r['not_model_ms_per_frame']} ms per frame")
     if s.get("reason"):
