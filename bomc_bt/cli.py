@@ -100,6 +100,9 @@ def parser() -> argparse.ArgumentParser:
     from bomc_bt import cli_site
 
     cli_site.add_parsers(sub, _Parser)  # objects, changes, export, publish, edit
+    from bomc_bt.cli_replay import add_parser as add_replay
+
+    add_replay(sub)
 
     # Parsed by the bridge itself (main() hands it the rest of the line); listed for --help.
     sub.add_parser("sim-ros", add_help=False,
@@ -168,6 +171,10 @@ def _dispatch(args) -> int:
         from bomc_bt import cli_site
 
         return cli_site.run(args)
+    if args.command == "replay":
+        from bomc_bt.cli_replay import replay
+
+        return replay(args)
     if args.command == "world":
         from bomc_bt.officegen.cli import generate_from_args
 

@@ -39,9 +39,12 @@ def session_summary(ctx) -> dict[str, Any]:
     }
 
 
-def write_session_report(ctx, close: bool = True) -> dict[str, Any]:
-    """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store."""
-    summary = session_summary(ctx)
+def write_session_report(ctx, close: bool = True, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store.
+
+    ``extra`` keys are added to the summary (a replayed pass adds ``localized`` and ``replay``).
+    """
+    summary = {**session_summary(ctx), **(extra or {})}
     if close:
         ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()})
     out = ctx.site.session_dir(ctx.session)
@@ -81,6 +84,11 @@ def report_markdown(s: dict[str, Any]) -> str:
     if regions:
         lines.append("- largest unobserved regions:")
         lines += [f"  - ({r['x']}, {r['y']}): {r['area_m2']} m²" for r in regions[:10]]
+    r = s.get("replay")
+    if r:
+        lines.append(f"- replayed from {r['bag']} ({r['rate']}): frames processed {r['processed']}, "
+                     f"dropped {r['dropped']}, skipped {r['skipped']} (of {r['frames_in_bag']} in the bag); "
+                     f"not-model cost {r['not_model_ms_per_frame']} ms per frame")
     if s.get("reason"):
         lines.append(f"- reason: {s['reason']}")
     return "\n".join(lines) + "\n"
