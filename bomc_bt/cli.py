@@ -97,6 +97,9 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--defaults", action="store_true", help="the code's defaults (config/defaults.yaml)")
     c.add_argument("--trees", action="store_true", help="the leaf parameters written in the shipped trees")
 
+    from bomc_bt.cli_fleet import add_fleet_commands
+
+    add_fleet_commands(sub)  # sync, pull: the central store
     # Parsed by the bridge itself (main() hands it the rest of the line); listed for --help.
     sub.add_parser("sim-ros", add_help=False,
                    help="serve the simulator over ROS 1 for --ros (bomc sim-ros --help for its options)")
@@ -160,6 +163,10 @@ def _dispatch(args) -> int:
         return _mission(args)
     if args.command == "view":
         return _view(args)
+    if args.command in ("sync", "pull"):
+        from bomc_bt.cli_fleet import run_fleet_command
+
+        return run_fleet_command(args)
     if args.command == "world":
         from bomc_bt.officegen.cli import generate_from_args
 

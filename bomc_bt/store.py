@@ -264,23 +264,7 @@ class SiteStore:
         ``observations`` counts the node's add/update/move events (history does not keep
         every match) and ``misses`` is 0: both are bookkeeping, not part of the map.
         """
-        nodes: dict[int, Node] = {}
-        for e in self.events(until=session):
-            node = nodes.get(e.node_id)
-            if e.kind == "added" or node is None:
-                nodes[e.node_id] = Node(e.node_id, e.category, e.position, e.confidence, e.session, e.session)
-                if e.kind == "removed":
-                    nodes[e.node_id].state = REMOVED
-                continue
-            node.position = e.position
-            node.confidence = e.confidence
-            if e.kind == "removed":
-                node.state = REMOVED
-            else:
-                node.state = PRESENT
-                node.last_session = e.session
-                node.observations += 1
-        return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
+        return replay_graph(self.events(until=session))
 
     def events(self, session: int | None = None, until: int | None = None) -> list[Event]:
         """History in write order: of one ``session``, up to and including ``until``, or all."""
@@ -306,6 +290,27 @@ class SiteStore:
     def get_progress(self, key: str, default: Any = None) -> Any:
         rows = self._query("SELECT value FROM progress WHERE key=?", (key,))
         return json.loads(rows[0][0]) if rows else default
+
+
+def replay_graph(events: Iterable[Event]) -> list[Node]:
+    """The present nodes after ``events`` (history in write order): how a graph is rebuilt from any store."""
+    nodes: dict[int, Node] = {}
+    for e in events:
+        node = nodes.get(e.node_id)
+        if e.kind == "added" or node is None:
+            nodes[e.node_id] = Node(e.node_id, e.category, e.position, e.confidence, e.session, e.session)
+            if e.kind == "removed":
+                nodes[e.node_id].state = REMOVED
+            continue
+        node.position = e.position
+        node.confidence = e.confidence
+        if e.kind == "removed":
+            node.state = REMOVED
+        else:
+            node.state = PRESENT
+            node.last_session = e.session
+            node.observations += 1
+    return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
 
 
 def _xyz(p: np.ndarray) -> np.ndarray:
