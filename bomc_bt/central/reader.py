@@ -36,9 +36,9 @@ class CentralGraph:
         self.path = self.site.shown  # what error messages name, as a local store's path
         conn = connect(self.site.conninfo, timeout)
         try:
-            schema.check(conn, self.path)
             with central_errors(self.site.conninfo, "read"), conn.transaction():
                 conn.execute("SET TRANSACTION ISOLATION LEVEL REPEATABLE READ, READ ONLY")
+                schema.check(conn, self.path)
                 self.generation = self._generation(conn)
                 key = (self.site.building, self.site.floor, self.generation)
                 self._rows = read_central(conn, key)
