@@ -98,8 +98,12 @@ def test_a_failed_sync_leaves_the_central_state_and_the_next_completes_it(lab_si
     assert central_rows(central_url, "lab", "2") == read_local(site / "site.db")
 
 
-def test_kill_9_during_sync_then_repeat(lab_site, tmp_path, central_url, perfect):
-    """A sync killed at once, and one killed later, each leave before-or-after; the next completes."""
+def test_kill_9_in_the_middle_of_a_sync_then_repeat(lab_site, tmp_path, central_url, perfect):
+    """A sync killed with every row of the new pass sent but not committed: the central state
+    is the one before it, and the next sync completes it.
+
+    The test holds the sync log's table lock, so the sync stops at its last statement, inside
+    its transaction, until it is killed."""
     import subprocess
     import time
 
@@ -109,21 +113,24 @@ def test_kill_9_during_sync_then_repeat(lab_site, tmp_path, central_url, perfect
     sync_site(site, central_url, building="lab", floor="2", robot="r1")
     assert monitor(site, 2, perfect).returncode == 0
     before = central_state(central_url)
-    seen = set()
-    for delay in (0.0, 0.3, 0.6, 0.9, 1.2):
+    with psycopg.connect(central_url) as blocker:
+        blocker.execute("LOCK TABLE bomc.sync_log IN EXCLUSIVE MODE")
         proc = subprocess.Popen(bomc_command("sync", str(site), "--to", central_url), env=bomc_env(),
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(delay)
-        proc.kill()
-        proc.wait()
-        state = central_state(central_url)
-        seen.add("before" if state == before else "after")
-        if state != before:
-            assert central_rows(central_url, "lab", "2") == read_local(site / "site.db")
-            break
+        with psycopg.connect(central_url, autocommit=True) as watch:
+            for _ in range(600):  # until the sync waits on the lock with its rows sent
+                waiting = watch.execute("SELECT count(*) FROM pg_stat_activity WHERE application_name = 'bomc'"
+                                        " AND wait_event_type = 'Lock'").fetchone()[0]
+                if waiting or proc.poll() is not None:
+                    break
+                time.sleep(0.1)
+            assert waiting, "the sync never reached its last statement"
+            proc.kill()
+            proc.wait()
+        blocker.rollback()
+    assert central_state(central_url) == before
     sync_site(site, central_url)
     assert central_rows(central_url, "lab", "2") == read_local(site / "site.db")
-    assert seen <= {"before", "after"}
 
 
 def test_incremental_sync_pushes_only_the_new_pass(lab_site, tmp_path, central_url, perfect):
