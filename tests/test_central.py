@@ -9,6 +9,7 @@ with the perfect detector: a build and a pass take seconds.
 from __future__ import annotations
 
 import json
+import shutil
 
 import psycopg
 import pytest
@@ -39,6 +40,26 @@ def lab_site(tmp_path_factory, perfect, shared):
     run.run_build(LAB_B, site, seed=0, config=config)
     assert run.run_monitor(LAB_B, site, 1, seed=1, config=config).succeeded
     return site
+
+
+@pytest.fixture(scope="module")
+def lab_site_2(lab_site, perfect, tmp_path_factory):
+    """``lab_site`` after pass 2 (seed 2): what the same site holds once its next pass ran."""
+    site = copy_site(lab_site, tmp_path_factory.mktemp("lab2") / "site")
+    assert run.run_monitor(LAB_B, site, 2, seed=2, config=run.build_config([str(perfect)])).succeeded
+    return site
+
+
+def run_pass_2(site, lab_site_2) -> None:
+    """Give ``site`` (a copy of lab_site) what its pass 2 writes: the graph, the reports, the plan.
+
+    Passes are deterministic for a seed, so this is the pass's own result, without paying
+    for the simulation in every test."""
+    for name in ("site.db-wal", "site.db-shm"):
+        (site / name).unlink(missing_ok=True)
+    for name in ("site.db", "plan.json"):
+        shutil.copy2(lab_site_2 / name, site / name)
+    shutil.copytree(lab_site_2 / "sessions", site / "sessions", dirs_exist_ok=True)
 
 
 def monitor(site, session: int, perfect) -> object:
@@ -78,12 +99,12 @@ def test_sync_is_idempotent_and_mirrors_the_site(lab_site, tmp_path, central_url
     assert "password" not in (site / "site.json").read_text()
 
 
-def test_a_failed_sync_leaves_the_central_state_and_the_next_completes_it(lab_site, tmp_path, central_url,
-                                                                          monkeypatch, perfect):
+def test_a_failed_sync_leaves_the_central_state_and_the_next_completes_it(lab_site, lab_site_2, tmp_path,
+                                                                          central_url, monkeypatch):
     site = copy_site(lab_site, tmp_path / "a")
     sync_site(site, central_url, building="lab", floor="2", robot="r1")
     before = central_state(central_url)
-    assert monitor(site, 2, perfect).returncode == 0
+    run_pass_2(site, lab_site_2)
     from bomc_bt.central import sync as sync_module
 
     def network_gone(*args, **kwargs):  # the graph's rows are sent by now, in the open transaction
@@ -98,7 +119,7 @@ def test_a_failed_sync_leaves_the_central_state_and_the_next_completes_it(lab_si
     assert central_rows(central_url, "lab", "2") == read_local(site / "site.db")
 
 
-def test_kill_9_in_the_middle_of_a_sync_then_repeat(lab_site, tmp_path, central_url, perfect):
+def test_kill_9_in_the_middle_of_a_sync_then_repeat(lab_site, lab_site_2, tmp_path, central_url):
     """A sync killed with every row of the new pass sent but not committed: the central state
     is the one before it, and the next sync completes it.
 
@@ -111,7 +132,7 @@ def test_kill_9_in_the_middle_of_a_sync_then_repeat(lab_site, tmp_path, central_
 
     site = copy_site(lab_site, tmp_path / "a")
     sync_site(site, central_url, building="lab", floor="2", robot="r1")
-    assert monitor(site, 2, perfect).returncode == 0
+    run_pass_2(site, lab_site_2)
     before = central_state(central_url)
     with psycopg.connect(central_url) as blocker:
         blocker.execute("LOCK TABLE bomc.sync_log IN EXCLUSIVE MODE")
@@ -133,11 +154,11 @@ def test_kill_9_in_the_middle_of_a_sync_then_repeat(lab_site, tmp_path, central_
     assert central_rows(central_url, "lab", "2") == read_local(site / "site.db")
 
 
-def test_incremental_sync_pushes_only_the_new_pass(lab_site, tmp_path, central_url, perfect):
+def test_incremental_sync_pushes_only_the_new_pass(lab_site, lab_site_2, tmp_path, central_url):
     site = copy_site(lab_site, tmp_path / "a")
     sync_site(site, central_url, building="lab", floor="2", robot="r1")
     rows_before = len(read_local(site / "site.db").node_history)
-    assert monitor(site, 2, perfect).returncode == 0
+    run_pass_2(site, lab_site_2)
     new_rows = len(read_local(site / "site.db").node_history) - rows_before
     result = sync_site(site, central_url)
     assert result.pushed["history rows"] == new_rows > 0
@@ -145,11 +166,10 @@ def test_incremental_sync_pushes_only_the_new_pass(lab_site, tmp_path, central_u
     assert central_rows(central_url, "lab", "2") == read_local(site / "site.db")
 
 
-def test_two_robots_alternate_through_the_central_store(lab_site, tmp_path, central_url, perfect):
+def test_two_robots_alternate_through_the_central_store(lab_site, lab_site_2, tmp_path, central_url, perfect):
     """Robot A passes 1 and 3, robot B pass 2 (pulled); the central graph is the one robot's graph."""
-    alone = copy_site(lab_site, tmp_path / "alone")
-    for n in (2, 3):
-        assert monitor(alone, n, perfect).returncode == 0
+    alone = copy_site(lab_site_2, tmp_path / "alone")
+    assert run.run_monitor(LAB_B, alone, 3, seed=3, config=run.build_config([str(perfect)])).succeeded
     a = copy_site(lab_site, tmp_path / "a")
     synced = bomc("sync", str(a), "--to", central_url, "--building", "lab", "--floor", "2", "--robot", "A")
     assert synced.returncode == 0, synced.stderr
@@ -196,9 +216,8 @@ def test_the_lease_refuses_a_second_robot_until_it_expires(lab_site, tmp_path, c
         assert conn.execute("SELECT count(*) FROM bomc.leases").fetchone()[0] == 0  # released at the end
 
 
-def test_evaluate_and_view_read_the_central_store_as_the_site(lab_site, tmp_path, central_url, perfect):
-    site = copy_site(lab_site, tmp_path / "a")
-    assert monitor(site, 2, perfect).returncode == 0
+def test_evaluate_and_view_read_the_central_store_as_the_site(lab_site_2, tmp_path, central_url):
+    site = copy_site(lab_site_2, tmp_path / "a")
     sync_site(site, central_url, building="lab", floor="2", robot="A")
     url = central_url + "?building=lab&floor=2"
     for n in (1, 2):
