@@ -266,3 +266,40 @@ def test_bad_inputs_are_one_line_errors(lab_site, tmp_path, central_url, postgre
     assert "building=B&floor=F" in error_line(bomc("evaluate", "--world", str(LAB_B), "--site", central_url,
                                                    "--session", "1"))
     assert "--building" in error_line(bomc("sync", str(site), "--to", central_url, "--building", "a/b"))
+
+
+def test_the_viewer_serves_a_floor_of_the_central_store(lab_site_2, tmp_path, central_url):
+    import urllib.request
+
+    from bomc_bt.viewer import serve_site
+
+    site = copy_site(lab_site_2, tmp_path / "a")
+    sync_site(site, central_url, building="lab", floor="2", robot="A")
+    pages = []
+    for where in (str(site), central_url + "?building=lab&floor=2"):
+        server = serve_site(where, port=0)
+        try:
+            state = json.loads(urllib.request.urlopen(server.url + "state.json", timeout=10).read())
+            png = urllib.request.urlopen(server.url + "map.png", timeout=10).read()
+        finally:
+            server.close()
+        pages.append((state["sections"]["site"]["sessions"], png))
+    assert pages[1] == pages[0]
+    assert [s["number"] for s in pages[1][0]] == [1, 2]
+
+
+def test_sync_without_a_store_named_is_a_one_line_error(tmp_path):
+    (tmp_path / "s").mkdir()
+    result = subprocess_bomc_without_env("sync", str(tmp_path / "s"))
+    assert "BOMC_CENTRAL" in error_line(result)
+
+
+def subprocess_bomc_without_env(*args: str):
+    import os
+    import subprocess
+
+    from site_files import REPO, bomc_command
+
+    env = {k: v for k, v in os.environ.items() if k not in ("BOMC_CENTRAL", "PGHOST", "PGDATABASE", "PGSERVICE")}
+    env["PYTHONPATH"] = str(REPO)
+    return subprocess.run(bomc_command(*args), capture_output=True, text=True, cwd=REPO, env=env, timeout=120)
