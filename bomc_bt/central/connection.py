@@ -105,6 +105,11 @@ def redact(conninfo: str) -> str:
     return re.sub(r"password\s*=\s*('(?:[^'\\]|\\.)*'|\S+)", "password=***", conninfo)
 
 
+def remembered(conninfo: str) -> str:
+    """What ``site.json`` keeps: the string without its password ("" when libpq's PG* variables gave it)."""
+    return redact(conninfo) if conninfo else ""
+
+
 def psycopg_module() -> Any:
     try:
         import psycopg

@@ -6,9 +6,9 @@
 
 ``building`` and ``floor`` say which floor of the central store the site's rows belong to,
 ``robot`` who pushes and runs passes from this copy, ``central`` where it was last synced
-or pulled from (the connection string without its password; ``$BOMC_CENTRAL`` overrides
-it). A site with ``central`` set is part of a fleet: its monitor passes take the floor's
-lease (:mod:`bomc_bt.central.lease`).
+or pulled from (the connection string without its password, ``""`` when libpq's ``PG*``
+variables gave it; ``$BOMC_CENTRAL`` overrides it). A site with ``central`` set (not null)
+is part of a fleet: its monitor passes take the floor's lease (:mod:`bomc_bt.central.lease`).
 
 The file is an extension of the site layout (CONTRACTS.md 3 leaves everything but the map
 and trajectory to us). It is written by the first ``bomc sync`` (from ``--building`` /

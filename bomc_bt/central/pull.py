@@ -28,7 +28,7 @@ from typing import Any
 
 from bomc_bt.atomic import atomic_write
 from bomc_bt.central import schema
-from bomc_bt.central.connection import central_errors, check_name, connect, redact
+from bomc_bt.central.connection import central_errors, check_name, connect, redact, remembered
 from bomc_bt.central.identity import SiteIdentity, default_robot, read_identity, save_identity
 from bomc_bt.central.rows import read_central, read_local, write_local
 from bomc_bt.central.site_files import MAP, local_path, safe_name, sha256
@@ -59,7 +59,8 @@ def pull_site(root: Path, conninfo: str, building: str, floor: str, robot: str |
             generation, rows, files = _read_floor(conn, building, floor)
     finally:
         conn.close()
-    identity = SiteIdentity(building, floor, robot or (known.robot if known else default_robot()), redact(conninfo))
+    identity = SiteIdentity(building, floor, robot or (known.robot if known else default_robot()),
+                            remembered(conninfo))
     lock = SiteLock.acquire(root, "pull", create=True)
     try:
         recover(root)

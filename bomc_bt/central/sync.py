@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from bomc_bt.central import schema
-from bomc_bt.central.connection import central_errors, connect, redact
+from bomc_bt.central.connection import central_errors, connect, redact, remembered
 from bomc_bt.central.identity import SiteIdentity, save_identity, settle_identity
 from bomc_bt.central.rows import COLUMNS, GraphRows, local_history_row, read_central, read_local
 from bomc_bt.central.site_files import LocalGeneration, local_files, local_generations, sha256
@@ -70,7 +70,7 @@ def sync_site(root: Path, conninfo: str, *, building: str | None = None, floor: 
     generations = local_generations(root)
     if not generations:
         raise BomcError("nothing to sync: this site has no map (run `bomc build` first)", root)
-    identity = settle_identity(root, building, floor, robot, redact(conninfo) if conninfo else None)
+    identity = settle_identity(root, building, floor, robot, remembered(conninfo))
     result = SyncResult(identity)
     conn = connect(conninfo, timeout)
     try:
