@@ -104,6 +104,9 @@ def parser() -> argparse.ArgumentParser:
 
     add_replay(sub)
 
+    from bomc_bt.cli_fleet import add_fleet_commands
+
+    add_fleet_commands(sub)  # sync, pull: the central store
     # Parsed by the bridge itself (main() hands it the rest of the line); listed for --help.
     sub.add_parser("sim-ros", add_help=False,
                    help="serve the simulator over ROS 1 for --ros (bomc sim-ros --help for its options)")
@@ -175,6 +178,10 @@ def _dispatch(args) -> int:
         from bomc_bt.cli_replay import replay
 
         return replay(args)
+    if args.command in ("sync", "pull"):
+        from bomc_bt.cli_fleet import run_fleet_command
+
+        return run_fleet_command(args)
     if args.command == "world":
         from bomc_bt.officegen.cli import generate_from_args
 

@@ -19,6 +19,7 @@ from bomc_bt.algorithm_params import (
     RelocalizationParams,
     TraversalParams,
 )
+from bomc_bt.central.params import CentralParams
 from bomc_bt.config_docs import documented_yaml, plain
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import AssociationParams
@@ -68,6 +69,7 @@ class Config:
     association: AssociationParams = field(default_factory=AssociationParams)
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     ros: RosParams = field(default_factory=RosParams)
+    central: CentralParams = field(default_factory=CentralParams)
     source: list[str] = field(default_factory=list, init=False)  # the files merged, in order
 
 

@@ -17,8 +17,7 @@ from bomc_bt.errors import BomcError
 from bomc_bt.evaluation import EvaluationResult, evaluate
 from bomc_bt.graph import ObjectGraph
 from bomc_bt.miss_causes import Miss, miss_causes
-from bomc_bt.site import Site
-from bomc_bt.store import SiteStore
+from bomc_bt.site_reader import open_graph
 from bomc_bt.world import World, load_world
 
 
@@ -34,15 +33,12 @@ def session_misses(world: str | Path | World, site_dir: str | Path, session: int
 
 def _scored(world: str | Path | World, site_dir: str | Path, session: int, config: Config):
     world = world if isinstance(world, World) else load_world(world)
-    site = Site(Path(site_dir))
-    if not site.store_path.exists():
-        raise BomcError("no object graph here: run `bomc monitor` first", site.store_path)
-    store = SiteStore(site.store_path, readonly=True)
+    store = open_graph(site_dir)  # a site directory or a postgresql:// floor (bomc_bt.site_reader)
     try:
         recorded = {s.number: s for s in store.sessions()}
         if session not in recorded:
             known = ", ".join(map(str, sorted(recorded))) or "none"
-            raise BomcError(f"session {session} was not recorded (recorded: {known})", site.store_path, "--session")
+            raise BomcError(f"session {session} was not recorded (recorded: {known})", store.path, "--session")
         nodes = store.graph_after(session)
         ended_at = recorded[session].ended_stamp
         present_ids = {n.id for n in nodes}

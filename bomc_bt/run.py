@@ -288,7 +288,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
     factory.prepare(config)
     check_mission_tree(Path(tree) if tree else default_tree("monitor"), "monitor")
     lock = lock_for_monitor(Path(site_dir))  # one writer for the whole pass (bomc_bt.site_lock)
-    store = robot = None
+    store = robot = lease = None
     try:
         site = Site(Path(site_dir))  # after the lock: the current generation, read once
         site.require_build()
@@ -298,6 +298,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         factory.connect()
         store = SiteStore(site.store_path)
         check_session(store, session, resume, site.store_path)
+        lease = _floor_lease(site, store, config)  # a fleet site: one pass per floor (bomc_bt.central.lease)
         graph = store.load_graph(config.association)
         robot = factory.monitor_robot(config, session)
         robot.use_map(grid)
@@ -321,7 +322,21 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
             factory.release(robot)
         if store is not None:
             store.close()
+        if lease is not None:
+            lease.release()
         lock.release()
+
+
+def _floor_lease(site: Site, store, config: Config):
+    """The floor's lease when the site is part of a fleet (site.json names a central store), else None."""
+    from bomc_bt.site import current_generation
+
+    if not (site.root / "site.json").exists():
+        return None
+    from bomc_bt.central.lease import take_floor_lease
+
+    sessions = {s.number for s in store.sessions()}
+    return take_floor_lease(site.root, config.central, sessions, current_generation(site.root) or 1)
 
 
 def _pass_interrupted(ctx: MissionContext) -> None:

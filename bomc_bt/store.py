@@ -284,26 +284,7 @@ class SiteStore:
         Operator edits count from the pass they are filed under, the one after them
         (:mod:`bomc_bt.site.edits`): the map that pass started from.
         """
-        nodes: dict[int, Node] = {}
-        for e in self.events(until=session, operator=True):
-            node = nodes.get(e.node_id)
-            if e.kind == "added" or node is None:
-                nodes[e.node_id] = Node(e.node_id, e.category, e.position, e.confidence, e.session, e.session)
-                if e.kind in ("removed", "deleted"):
-                    nodes[e.node_id].state = REMOVED
-                continue
-            node.position = e.position
-            node.confidence = e.confidence
-            node.category = e.category  # an operator's relabelling
-            if e.kind in ("removed", "deleted"):
-                node.state = REMOVED
-            elif e.kind == "restored":
-                node.state = PRESENT
-            elif not e.by_operator:
-                node.state = PRESENT
-                node.last_session = e.session
-                node.observations += 1
-        return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
+        return replay_graph(self.events(until=session, operator=True))
 
     def events(self, session: int | None = None, until: int | None = None, operator: bool = False) -> list[Event]:
         """History in write order: of one ``session``, up to and including ``until``, or all.
@@ -338,6 +319,31 @@ class SiteStore:
     def get_progress(self, key: str, default: Any = None) -> Any:
         rows = self._query("SELECT value FROM progress WHERE key=?", (key,))
         return json.loads(rows[0][0]) if rows else default
+
+
+def replay_graph(events: Iterable[Event]) -> list[Node]:
+    """The present nodes after ``events`` (history in write order): how a graph is rebuilt
+    from any store. Operator edits (:mod:`bomc_bt.site.edits`) relabel, delete and restore."""
+    nodes: dict[int, Node] = {}
+    for e in events:
+        node = nodes.get(e.node_id)
+        if e.kind == "added" or node is None:
+            nodes[e.node_id] = Node(e.node_id, e.category, e.position, e.confidence, e.session, e.session)
+            if e.kind in ("removed", "deleted"):
+                nodes[e.node_id].state = REMOVED
+            continue
+        node.position = e.position
+        node.confidence = e.confidence
+        node.category = e.category  # an operator's relabelling
+        if e.kind in ("removed", "deleted"):
+            node.state = REMOVED
+        elif e.kind == "restored":
+            node.state = PRESENT
+        elif not e.by_operator:
+            node.state = PRESENT
+            node.last_session = e.session
+            node.observations += 1
+    return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
 
 
 def _xyz(p: np.ndarray) -> np.ndarray:
