@@ -236,7 +236,7 @@ class SiteStore:
                      *box),
                 )
             for key, value in (progress or {}).items():
-                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
 
     def load_graph(self, params: AssociationParams) -> ObjectGraph:
         """The live graph (present nodes); new ids continue past every id ever issued."""
@@ -301,7 +301,7 @@ class SiteStore:
     def set_progress(self, key: str, value: Any) -> None:
         """Store a JSON-able value (e.g. the next waypoint index) for resuming."""
         with self._transaction("set_progress") as db:
-            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
 
     def get_progress(self, key: str, default: Any = None) -> Any:
         rows = self._query("SELECT value FROM progress WHERE key=?", (key,))
