@@ -128,6 +128,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bomc: interrupted", file=sys.stderr)
         return 1
+    except OSError as exc:  # out of disk, permission taken away mid-run: what was saved stays saved
+        where = f" ({exc.filename})" if exc.filename else ""
+        print(f"bomc: failed: {exc.strerror or _one_line(exc)}{where}; the site keeps what was saved before",
+              file=sys.stderr)
+        return 1
 
 
 def _one_line(exc: Exception) -> str:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import json
 import sqlite3
 import threading
@@ -99,6 +100,8 @@ class SiteStore:
             yield
         except sqlite3.DatabaseError as exc:
             text = str(exc)
+            if "disk is full" in text or "disk I/O error" in text:  # the environment, not the input: exit 1
+                raise OSError(errno.ENOSPC if "full" in text else errno.EIO, text, str(self.path)) from None
             if "not a database" in text or "malformed" in text:
                 msg = f"not a bomc site store (the file is not an SQLite database or is corrupt: {text})"
             elif "locked" in text or "busy" in text:
@@ -115,7 +118,8 @@ class SiteStore:
             try:
                 yield self._db
             except BaseException:
-                self._db.execute("ROLLBACK")
+                if self._db.in_transaction:  # SQLite rolls back by itself on SQLITE_FULL and I/O errors
+                    self._db.execute("ROLLBACK")
                 raise
             self._db.execute("COMMIT")
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from bomc_bt.geometry import Pose2D
+from bomc_bt.pass_resume import pack_mask, unpack_mask
 
 
 def robot_state(robot) -> dict[str, Any]:
@@ -27,8 +28,7 @@ def robot_state(robot) -> dict[str, Any]:
     t = robot._true
     obstacles = None
     if robot._obstacles is not None:
-        rows, cols = np.nonzero(robot._obstacles.mask)
-        obstacles = {"cells": np.stack([rows, cols], axis=1).tolist(), "version": int(robot._obstacles.version)}
+        obstacles = {"mask": pack_mask(robot._obstacles.mask), "version": int(robot._obstacles.version)}
     return {
         "kind": "sim",
         "session": robot.session,
@@ -76,9 +76,7 @@ def restore_robot(robot, state: dict[str, Any]) -> None:
     robot.people.headings = np.asarray(people["headings"], dtype=float).reshape(-1, 2)
     saved = state.get("obstacles")
     if saved is not None and robot._obstacles is not None:
-        cells = np.asarray(saved["cells"], dtype=np.int64).reshape(-1, 2)
-        robot._obstacles.mask[:] = False
-        robot._obstacles.mask[cells[:, 0], cells[:, 1]] = True
+        robot._obstacles.mask[:] = unpack_mask(saved["mask"], robot._obstacles.mask.shape).astype(bool)
         robot._obstacles.version = int(saved["version"])
         robot.planners.use_map(robot._map, robot._obstacles)
     for name, value in state["rng"].items():
