@@ -253,7 +253,8 @@ def make_perception(config: Config, seed: int, base_dir: Path):
     return detector, detector
 
 
-def check_session(store, session: int, resume: bool, store_path: Path, seed: int | None = None) -> None:
+def check_session(store, session: int, resume: bool, store_path: Path, seed: int | None = None,
+                  world_last: int = 1) -> None:
     """Sessions run in order and history is never overwritten; a resumed pass keeps its seed
     (the continued pass draws from the same random streams)."""
     records = {s.number: s for s in store.sessions()}
@@ -272,6 +273,9 @@ def check_session(store, session: int, resume: bool, store_path: Path, seed: int
     elif session < last:
         raise BomcError(f"session {session} is older than the last recorded session {last}", store_path,
                         "--session")
+    elif session > max(last, world_last) + 1:
+        raise BomcError(f"session {session} is beyond what the site and the world hold (the site's last is {last}, "
+                        f"the world's {world_last}): the next is {last + 1}", store_path, "--session")
 
 
 def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: int, *,
@@ -303,7 +307,8 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         categories = factory.categories(config)
         factory.connect()
         store = SiteStore(site.store_path)
-        check_session(store, session, resume, site.store_path, seed)
+        world = getattr(factory, "world", None)  # the simulator's: sessions it describes
+        check_session(store, session, resume, site.store_path, seed, getattr(world, "last_session", 1))
         graph = store.load_graph(config.association)
         robot = factory.monitor_robot(config, session)
         robot.use_map(grid)
