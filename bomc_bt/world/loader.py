@@ -92,7 +92,7 @@ class _Parser(FieldReader):
         out: dict[int, Change] = {}
         for key, body in value.items():
             if isinstance(key, bool) or not isinstance(key, int) or not 2 <= key <= MAX_SESSION:
-                raise self.fail(f"session numbers are integers >= 2 (at most {MAX_SESSION}), got {describe(key)}",
+                raise self.fail(f"session numbers are integers >= 2, got {describe(key)} (at most {MAX_SESSION})",
                                 "sessions")
             where = f"sessions[{key}]"
             out[key] = self.change(self.mapping({} if body is None else body, where, _CHANGE_KEYS), where)
@@ -105,7 +105,7 @@ class _Parser(FieldReader):
             m = self.mapping(entry, where, _DURING_KEYS, ("session", "at"))
             session = m["session"]
             if isinstance(session, bool) or not isinstance(session, int) or not 1 <= session <= MAX_SESSION:
-                raise self.fail(f"expected a session number >= 1 (at most {MAX_SESSION}), got {describe(session)}",
+                raise self.fail(f"expected a session number >= 1, got {describe(session)} (at most {MAX_SESSION})",
                                 join(where, "session"))
             at = self.number(m["at"], join(where, "at"))
             if at < 0.0:
