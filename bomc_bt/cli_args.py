@@ -31,7 +31,7 @@ def seed(text: str) -> int:
 
 
 def port(text: str) -> int:
-    return _integer(text, 1, 65535, "a TCP port")
+    return _integer(text, 0, 65535, "a TCP port; 0: any free one")
 
 
 def session(text: str) -> int:

@@ -307,6 +307,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         categories = factory.categories(config)
         factory.connect()
         store = SiteStore(site.store_path)
+        store.verify()  # a corrupt store is refused before the pass writes anything
         world = getattr(factory, "world", None)  # the simulator's: sessions it describes
         check_session(store, session, resume, site.store_path, seed, getattr(world, "last_session", 1))
         graph = store.load_graph(config.association)

@@ -44,7 +44,15 @@ import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
-from bomc_bt.store_schema import SCHEMA, connect, open_schema
+from bomc_bt.store_schema import (
+    EVENT_COLUMNS,
+    NODE_COLUMNS,
+    SCHEMA,
+    SESSION_COLUMNS,
+    checked_rows,
+    connect,
+    open_schema,
+)
 
 FILENAME = "site.db"
 _SCHEMA = SCHEMA  # the schema text, for tests that write old versions of it
@@ -123,9 +131,20 @@ class SiteStore:
                 raise
             self._db.execute("COMMIT")
 
-    def _query(self, sql: str, args: tuple = ()) -> list[tuple]:
+    def _query(self, sql: str, args: tuple = (), kinds: str = "", table: str = "") -> list[tuple]:
+        """Rows of ``sql``; with ``kinds``, each value checked (store_schema.checked_rows)."""
         with self._lock, self._errors("read"):
-            return self._db.execute(sql, args).fetchall()
+            rows = self._db.execute(sql, args).fetchall()
+        return checked_rows(rows, kinds, self.path, table) if kinds else rows
+
+    def verify(self) -> None:
+        """Read every row once, checked: a writer calls it before it writes, so that a corrupt
+        store is refused (exit 2) with nothing changed instead of failing half-way."""
+        self.sessions()
+        self.nodes(include_removed=True)
+        self.events()
+        for (key,) in self._query("SELECT key FROM progress", (), "s", "progress"):
+            self.get_progress(key)
 
     def close(self) -> None:
         with self._lock:
@@ -140,7 +159,7 @@ class SiteStore:
     # ------------------------------------------------------------- sessions
     def next_session(self) -> int:
         """The number a new session should get: one past the highest recorded (1 if none)."""
-        rows = self._query("SELECT MAX(number) FROM sessions")
+        rows = self._query("SELECT MAX(number) FROM sessions", (), "I", "sessions")
         return (rows[0][0] or 0) + 1
 
     def begin_session(self, number: int, info: dict[str, Any] | None = None) -> bool:
@@ -210,10 +229,10 @@ class SiteStore:
     def sessions(self) -> list[SessionRecord]:
         rows = self._query(
             "SELECT number, started_stamp, started_wall, ended_stamp, ended_wall, outcome, counts, report,"
-            " info FROM sessions ORDER BY number"
+            " info FROM sessions ORDER BY number", (), SESSION_COLUMNS, "sessions"
         )
         return [
-            SessionRecord(n, s0, w0, s1, w1, out, _loads(counts), _loads(report), _loads(info))
+            SessionRecord(n, s0, w0, s1, w1, out, counts, report, info)
             for n, s0, w0, s1, w1, out, counts, report, info in rows
         ]
 
@@ -246,7 +265,7 @@ class SiteStore:
         """The live graph (present nodes); new ids continue past every id ever issued."""
         nodes = self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
         top = self._query("SELECT MAX(m) FROM (SELECT MAX(id) AS m FROM nodes UNION ALL"
-                          " SELECT MAX(id) FROM node_history)")[0][0]
+                          " SELECT MAX(id) FROM node_history)", (), "I", "nodes")[0][0]
         return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1)
 
     def nodes(self, include_removed: bool = False) -> list[Node]:
@@ -259,7 +278,8 @@ class SiteStore:
         return [
             Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses,
                  None if None in box else np.array(box, dtype=float))
-            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box in self._query(sql, args)
+            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box
+            in self._query(sql, args, NODE_COLUMNS, "nodes")
         ]
 
     def graph_after(self, session: int) -> list[Node]:
@@ -290,11 +310,11 @@ class SiteStore:
         """History in write order: of one ``session``, up to and including ``until``, or all."""
         sql = "SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz FROM node_history"
         if session is not None:
-            rows = self._query(sql + " WHERE session=? ORDER BY seq", (session,))
+            rows = self._query(sql + " WHERE session=? ORDER BY seq", (session,), EVENT_COLUMNS, "node_history")
         elif until is not None:
-            rows = self._query(sql + " WHERE session<=? ORDER BY seq", (until,))
+            rows = self._query(sql + " WHERE session<=? ORDER BY seq", (until,), EVENT_COLUMNS, "node_history")
         else:
-            rows = self._query(sql + " ORDER BY seq")
+            rows = self._query(sql + " ORDER BY seq", (), EVENT_COLUMNS, "node_history")
         return [
             Event(kind, nid, cat, np.array([x, y, z]), sess, stamp,
                   None if px is None else np.array([px, py, pz]), conf)
@@ -308,8 +328,8 @@ class SiteStore:
             db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
 
     def get_progress(self, key: str, default: Any = None) -> Any:
-        rows = self._query("SELECT value FROM progress WHERE key=?", (key,))
-        return json.loads(rows[0][0]) if rows else default
+        rows = self._query("SELECT value FROM progress WHERE key=?", (key,), "J", "progress")
+        return rows[0][0] if rows else default
 
 
 def _xyz(p: np.ndarray) -> np.ndarray:
@@ -325,10 +345,6 @@ def _now() -> str:
 
 def _opt_float(value: Any) -> float | None:
     return None if value is None else float(value)
-
-
-def _loads(text: str | None) -> dict[str, Any]:
-    return json.loads(text) if text else {}
 
 
 def _jsonable(value: Any) -> Any:

@@ -80,11 +80,13 @@ class SiteView:
 
         if not self.site.build_json.exists():
             return {}
-        try:
-            data = read_json(self.site.build_json)
-        except BomcError:
-            return {}
-        return data if isinstance(data, dict) else {}
+        data = read_json(self.site.build_json)  # unreadable: refused, not shown as an empty build
+        numbers = ("explored_area_m2", "path_length_m", "sim_time_s")
+        if not (isinstance(data, dict) and isinstance(data.get("termination"), str)
+                and all(isinstance(data.get(k), (int, float)) and not isinstance(data.get(k), bool) for k in numbers)):
+            raise BomcError("not a build record (expected termination and " + ", ".join(numbers) + ")",
+                            self.site.build_json)
+        return data
 
     def _trajectory(self) -> list[float]:
         path = self.site.trajectory_csv
