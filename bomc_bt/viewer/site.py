@@ -81,11 +81,14 @@ class SiteView:
         if not self.site.build_json.exists():
             return {}
         data = read_json(self.site.build_json)  # unreadable: refused, not shown as an empty build
-        numbers = ("explored_area_m2", "path_length_m", "sim_time_s")
-        if not (isinstance(data, dict) and isinstance(data.get("termination"), str)
-                and all(isinstance(data.get(k), (int, float)) and not isinstance(data.get(k), bool) for k in numbers)):
-            raise BomcError("not a build record (expected termination and " + ", ".join(numbers) + ")",
-                            self.site.build_json)
+        texts = ("termination", "reason", "outcome")  # older builds wrote explored_area, path_length, reason
+        numbers = ("explored_area_m2", "path_length_m", "sim_time_s", "explored_area", "path_length")
+        known = [k for k in (*texts, *numbers) if isinstance(data, dict) and k in data]
+        wrong = [k for k in known if not (isinstance(data[k], str) if k in texts else
+                                          isinstance(data[k], (int, float)) and not isinstance(data[k], bool))]
+        if not known or wrong:
+            what = f"{wrong[0]} has the wrong type" if wrong else "none of " + ", ".join((*texts, *numbers))
+            raise BomcError(f"not a build record ({what})", self.site.build_json)
         return data
 
     def _trajectory(self) -> list[float]:
