@@ -9,8 +9,9 @@ people walking about, the obstacle layer, the random streams' states, and when t
 and obstacle layer last fired. The detector, the camera noise and the lidar noise draw
 from streams keyed by the seed and the robot time, so restoring the clock restores them.
 
-What is not restored: a navigation goal in flight (the tree sends it again from the
-restored pose) and a relocalization in flight (a pass commits only once localized).
+The goal being driven to is restored with its path and the navigator's timers; the
+resumed tree sends the same goal again and the robot drives on. Not restored: a
+relocalization in flight (a pass commits only once localized).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.pass_resume import pack_mask, unpack_mask
+from bomc_bt.sim.navigation import NavHandle
 
 
 def robot_state(robot) -> dict[str, Any]:
@@ -45,7 +47,43 @@ def robot_state(robot) -> dict[str, Any]:
         "people": {"positions": robot.people.positions.tolist(), "headings": robot.people.headings.tolist()},
         "obstacles": obstacles,
         "rng": {name: getattr(robot, name).bit_generator.state for name in _STREAMS},
+        "stuck": bool(robot._stuck),
+        "navigation": _navigation_state(robot.navigator),
     }
+
+
+def _navigation_state(nav) -> dict[str, Any] | None:
+    """The goal being driven to, its path and the navigator's timers (None: no goal in flight)."""
+    if not nav.active:
+        return None
+    def finite(v):
+        return None if v is None or not np.isfinite(v) else float(v)
+
+    return {"goal": _pose(nav.handle.goal), "path": None if nav.path is None else nav.path.tolist(),
+            "best": finite(nav._best), "last_progress": finite(nav._last_progress),
+            "next_check": finite(nav._next_check), "fail_at": finite(nav._fail_at),
+            "stuck_since": finite(nav._stuck_since), "backup_until": finite(nav._backup_until),
+            "at_position": bool(nav._at_position)}
+
+
+def _restore_navigation(robot, saved: dict[str, Any] | None) -> None:
+    """Put the goal in flight back: the tree sends it again and drives on (SimRobot.navigate)."""
+    if saved is None:
+        return
+    nav = robot.navigator
+    nav.handle = NavHandle(Pose2D(*(float(v) for v in saved["goal"])))
+    nav.path = None
+    if saved["path"] is not None:
+        nav._set_path(np.asarray(saved["path"], dtype=float).reshape(-1, 2))
+    def value(key: str, default: float) -> float:
+        return default if saved[key] is None else float(saved[key])
+
+    nav._best, nav._last_progress = value("best", np.inf), value("last_progress", 0.0)
+    nav._next_check, nav._fail_at = value("next_check", 0.0), value("fail_at", np.inf)
+    nav._stuck_since = None if saved["stuck_since"] is None else float(saved["stuck_since"])
+    nav._backup_until = value("backup_until", -np.inf)
+    nav._at_position = bool(saved["at_position"])
+    robot._resumed_navigation = nav.handle
 
 
 _STREAMS = ("_nav_rng", "_noise_rng", "_reloc_rng")
@@ -82,6 +120,8 @@ def restore_robot(robot, state: dict[str, Any]) -> None:
     for name, value in state["rng"].items():
         if name in _STREAMS:
             getattr(robot, name).bit_generator.state = value
+    robot._stuck = bool(state.get("stuck", False))
+    _restore_navigation(robot, state.get("navigation"))
     robot._take_scan()
     estimate = state.get("estimate")
     robot._estimate = None if estimate is None else Pose2D(*(float(v) for v in estimate))

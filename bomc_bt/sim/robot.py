@@ -89,6 +89,7 @@ class SimRobot:
         self.navigator = Navigator(p.motion, p.planner.goal_tolerance, self._nav_rng,
                                    p.faults.nav_failure_probability)
         self._stuck = False
+        self._resumed_navigation: NavHandle | None = None  # the goal in flight when a pass was restored
         # Maps and localization.
         self.mapper = Mapper.like(world.grid, p.mapper) if mode == "build" else None
         self.planners = SimPlanners(p.planner, self.mapper)
@@ -266,6 +267,9 @@ class SimRobot:
 
     # -- port: navigation ------------------------------------------------------------------
     def navigate(self, goal: Pose2D) -> NavHandle:
+        resumed, self._resumed_navigation = self._resumed_navigation, None
+        if resumed is not None and resumed.status() is Status.RUNNING and resumed.goal == goal:
+            return resumed  # a resumed pass sends the goal it was driving to: drive on (sim/checkpoint.py)
         if not self._localized:
             self.navigator.cancel()
             handle = NavHandle(goal)
