@@ -15,6 +15,7 @@ import json
 import sys
 from pathlib import Path
 
+from bomc_bt import cli_args as arg
 from bomc_bt.errors import BomcError, MissionFailed
 
 
@@ -39,38 +40,38 @@ def parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("build", help="explore once and save the map")
     common(b, world_required=False)
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--seed", type=arg.seed, default=0)
     b.add_argument("--max-time", type=float, default=None, help="simulated seconds (default: until done)")
     b.add_argument("--explorer", choices=["dwfe", "baseline"], default=None)
     b.add_argument("--tree", default=None, help="tree file (default trees/build.yaml)")
     b.add_argument("--new-map", action="store_true",
                    help="re-build a site that has an object graph: archive the graph with its map (README: Sites)")
     b.add_argument("--viewer", action="store_true", help="serve the live viewer on 127.0.0.1")
-    b.add_argument("--viewer-port", type=int, default=8765)
+    b.add_argument("--viewer-port", type=arg.port, default=8765)
     b.add_argument("--quiet", action="store_true", help="no live tree view")
     b.add_argument("--ros", action="store_true", help="run against a ROS 1 robot instead of the simulator")
 
     m = sub.add_parser("monitor", help="one monitoring pass that updates the object graph")
     common(m, world_required=False)
-    m.add_argument("--session", type=int, required=True)
-    m.add_argument("--seed", type=int, default=0)
+    m.add_argument("--session", type=arg.session, required=True)
+    m.add_argument("--seed", type=arg.seed, default=0)
     m.add_argument("--tree", default=None, help="tree file (default trees/monitor.yaml)")
     m.add_argument("--resume", action="store_true", help="continue a pass that was killed")
     m.add_argument("--viewer", action="store_true")
-    m.add_argument("--viewer-port", type=int, default=8765)
+    m.add_argument("--viewer-port", type=arg.port, default=8765)
     m.add_argument("--quiet", action="store_true")
     m.add_argument("--ros", action="store_true", help="run against a ROS 1 robot instead of the simulator")
 
     e = sub.add_parser("evaluate", help="score the graph after a session against the world's ground truth")
     common(e)
-    e.add_argument("--session", type=int, required=True)
+    e.add_argument("--session", type=arg.session, required=True)
     e.add_argument("--json", action="store_true")
 
     d = sub.add_parser("demo", help="build once, then monitor sessions 1..3 and print the paper's tables")
     d.add_argument("--world", default=None, help="world file (default: lab-b from the shared worlds)")
     d.add_argument("--site", default="sites/demo")
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--sessions", type=int, default=3)
+    d.add_argument("--seed", type=arg.seed, default=0)
+    d.add_argument("--sessions", type=arg.session_count, default=3)
     d.add_argument("--config", action="append", default=[], metavar="FILE")
     d.add_argument("--quiet", action="store_true")
 
@@ -79,7 +80,7 @@ def parser() -> argparse.ArgumentParser:
     o = kinds.add_parser("office", help="an office floor of any size with sessions of changes")
     o.add_argument("--out", required=True, help="world file to write (NAME.yaml; the map goes beside it)")
     o.add_argument("--size", default="93x90", help="floor size WxH in metres (default 93x90, Environment A)")
-    o.add_argument("--seed", type=int, default=0)
+    o.add_argument("--seed", type=arg.seed, default=0)
     o.add_argument("--sessions", type=int, default=3)
     o.add_argument("--churn", type=float, default=None,
                    help="share of movable objects changed before each session (default 0.05)")
@@ -89,7 +90,7 @@ def parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("view", help="browse a finished site in the web viewer")
     v.add_argument("site", help="site directory")
-    v.add_argument("--port", type=int, default=8765)
+    v.add_argument("--port", type=arg.port, default=8765)
     v.add_argument("--no-browser", action="store_true", help="only print the address")
 
     c = sub.add_parser("config", help="print the effective configuration")
@@ -137,6 +138,11 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         print("bomc: interrupted", file=sys.stderr)
+        return 1
+    except OSError as exc:  # out of disk, permission taken away mid-run: what was saved stays saved
+        where = f" ({exc.filename})" if exc.filename else ""
+        print(f"bomc: failed: {exc.strerror or _one_line(exc)}{where}; the site keeps what was saved before",
+              file=sys.stderr)
         return 1
 
 

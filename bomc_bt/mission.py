@@ -53,6 +53,7 @@ class MissionContext:
     max_time: float | None = None
     dock: Pose2D | None = None  # where the robot starts a pass: the hint for relocalization
     resume: bool = False  # continue the session's pass where a killed run left it
+    restored: bool = False  # the robot's state was put back from the pass's resume point
     progress: Progress = field(default_factory=Progress)
     trajectory: TrajectoryRecorder | None = None
     explorer: Explorer | None = None  # during a build

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import json
 import sqlite3
 import threading
@@ -49,7 +50,15 @@ import numpy as np
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import OPERATOR_KINDS, PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
 from bomc_bt.graph.operator_edits import OperatorEdits
-from bomc_bt.store_schema import SCHEMA, connect, open_schema
+from bomc_bt.store_schema import (
+    EVENT_COLUMNS,
+    NODE_COLUMNS,
+    SCHEMA,
+    SESSION_COLUMNS,
+    checked_rows,
+    connect,
+    open_schema,
+)
 
 FILENAME = "site.db"
 _OPERATOR_SQL = "(" + ", ".join(f"'{k}'" for k in OPERATOR_KINDS) + ")"
@@ -106,6 +115,8 @@ class SiteStore:
             yield
         except sqlite3.DatabaseError as exc:
             text = str(exc)
+            if "disk is full" in text or "disk I/O error" in text:  # the environment, not the input: exit 1
+                raise OSError(errno.ENOSPC if "full" in text else errno.EIO, text, str(self.path)) from None
             if "not a database" in text or "malformed" in text:
                 msg = f"not a bomc site store (the file is not an SQLite database or is corrupt: {text})"
             elif "locked" in text or "busy" in text:
@@ -122,13 +133,25 @@ class SiteStore:
             try:
                 yield self._db
             except BaseException:
-                self._db.execute("ROLLBACK")
+                if self._db.in_transaction:  # SQLite rolls back by itself on SQLITE_FULL and I/O errors
+                    self._db.execute("ROLLBACK")
                 raise
             self._db.execute("COMMIT")
 
-    def _query(self, sql: str, args: tuple = ()) -> list[tuple]:
+    def _query(self, sql: str, args: tuple = (), kinds: str = "", table: str = "") -> list[tuple]:
+        """Rows of ``sql``; with ``kinds``, each value checked (store_schema.checked_rows)."""
         with self._lock, self._errors("read"):
-            return self._db.execute(sql, args).fetchall()
+            rows = self._db.execute(sql, args).fetchall()
+        return checked_rows(rows, kinds, self.path, table) if kinds else rows
+
+    def verify(self) -> None:
+        """Read every row once, checked: a writer calls it before it writes, so that a corrupt
+        store is refused (exit 2) with nothing changed instead of failing half-way."""
+        self.sessions()
+        self.nodes(include_removed=True)
+        self.events()
+        for (key,) in self._query("SELECT key FROM progress", (), "s", "progress"):
+            self.get_progress(key)
 
     def close(self) -> None:
         with self._lock:
@@ -143,7 +166,7 @@ class SiteStore:
     # ------------------------------------------------------------- sessions
     def next_session(self) -> int:
         """The number a new session should get: one past the highest recorded (1 if none)."""
-        rows = self._query("SELECT MAX(number) FROM sessions")
+        rows = self._query("SELECT MAX(number) FROM sessions", (), "I", "sessions")
         return (rows[0][0] or 0) + 1
 
     def begin_session(self, number: int, info: dict[str, Any] | None = None) -> bool:
@@ -214,10 +237,10 @@ class SiteStore:
     def sessions(self) -> list[SessionRecord]:
         rows = self._query(
             "SELECT number, started_stamp, started_wall, ended_stamp, ended_wall, outcome, counts, report,"
-            " info FROM sessions ORDER BY number"
+            " info FROM sessions ORDER BY number", (), SESSION_COLUMNS, "sessions"
         )
         return [
-            SessionRecord(n, s0, w0, s1, w1, out, _loads(counts), _loads(report), _loads(info))
+            SessionRecord(n, s0, w0, s1, w1, out, counts, report, info)
             for n, s0, w0, s1, w1, out, counts, report, info in rows
         ]
 
@@ -245,14 +268,14 @@ class SiteStore:
                      *box),
                 )
             for key, value in (progress or {}).items():
-                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
 
     def load_graph(self, params: AssociationParams) -> ObjectGraph:
         """The live graph (present nodes) with the operator's edits it must respect; new ids
         continue past every id ever issued."""
         nodes = self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
         top = self._query("SELECT MAX(m) FROM (SELECT MAX(id) AS m FROM nodes UNION ALL"
-                          " SELECT MAX(id) FROM node_history)")[0][0]
+                          " SELECT MAX(id) FROM node_history)", (), "I", "nodes")[0][0]
         edited = self._events(f" WHERE id IN (SELECT id FROM node_history WHERE kind IN {_OPERATOR_SQL})"
                               " ORDER BY seq", ())
         return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1,
@@ -261,7 +284,7 @@ class SiteStore:
     def categories(self) -> list[str]:
         """Every category a node of this store ever had, sorted."""
         return [r[0] for r in self._query("SELECT category FROM node_history UNION SELECT category FROM nodes"
-                                          " ORDER BY 1")]
+                                          " ORDER BY 1", (), "s", "node_history")]
 
     def nodes(self, include_removed: bool = False) -> list[Node]:
         """The current node table (present nodes, or all ids ever issued)."""
@@ -273,7 +296,8 @@ class SiteStore:
         return [
             Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses,
                  None if None in box else np.array(box, dtype=float))
-            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box in self._query(sql, args)
+            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box
+            in self._query(sql, args, NODE_COLUMNS, "nodes")
         ]
 
     def graph_after(self, session: int) -> list[Node]:
@@ -303,10 +327,10 @@ class SiteStore:
     def _events(self, tail: str, args: tuple) -> list[Event]:
         detail = "detail" if self.version >= 3 else "NULL"
         rows = self._query("SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz, "
-                           f"{detail} FROM node_history" + tail, args)
+                           f"{detail} FROM node_history" + tail, args, EVENT_COLUMNS + "J", "node_history")
         return [
             Event(kind, nid, cat, np.array([x, y, z]), sess, stamp,
-                  None if px is None else np.array([px, py, pz]), conf, None if text is None else json.loads(text))
+                  None if px is None else np.array([px, py, pz]), conf, text)
             for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz, text in rows
         ]
 
@@ -314,11 +338,11 @@ class SiteStore:
     def set_progress(self, key: str, value: Any) -> None:
         """Store a JSON-able value (e.g. the next waypoint index) for resuming."""
         with self._transaction("set_progress") as db:
-            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
 
     def get_progress(self, key: str, default: Any = None) -> Any:
-        rows = self._query("SELECT value FROM progress WHERE key=?", (key,))
-        return json.loads(rows[0][0]) if rows else default
+        rows = self._query("SELECT value FROM progress WHERE key=?", (key,), "J", "progress")
+        return rows[0][0] if rows else default
 
 
 def replay_graph(events: Iterable[Event]) -> list[Node]:
@@ -359,10 +383,6 @@ def _now() -> str:
 
 def _opt_float(value: Any) -> float | None:
     return None if value is None else float(value)
-
-
-def _loads(text: str | None) -> dict[str, Any]:
-    return json.loads(text) if text else {}
 
 
 def _jsonable(value: Any) -> Any:

@@ -25,6 +25,7 @@ take to read a site.
 
 from __future__ import annotations
 
+import json
 import sqlite3
 import urllib.parse
 from pathlib import Path
@@ -140,3 +141,55 @@ def _script(db: sqlite3.Connection, script: str) -> None:
         if db.in_transaction:
             db.execute("ROLLBACK")
         raise
+
+
+# What each column read back must hold: a file edited by hand or by another program can put
+# text in a number column or broken JSON in a report; that is an error naming the table,
+# column and row, never a crash further on. Kinds: i int, f finite number, s text, j JSON
+# object text, J any JSON text; upper case: NULL allowed.
+NODE_COLUMNS = "isffffiisiiFFFF"
+EVENT_COLUMNS = "iifssffffFFF"
+SESSION_COLUMNS = "iFsFSSjjj"
+NAMES = {
+    "nodes": ("id", "category", "x", "y", "z", "confidence", "first_session", "last_session", "state",
+              "observations", "misses", *FOOTPRINT),
+    "node_history": ("id", "session", "stamp", "kind", "category", "x", "y", "z", "confidence", "px", "py", "pz",
+                     "detail"),
+    "sessions": ("number", "started_stamp", "started_wall", "ended_stamp", "ended_wall", "outcome", "counts",
+                 "report", "info"),
+    "progress": ("value",),
+}
+_INT_LIMIT = 2**62
+
+
+def checked_rows(rows: list[tuple], kinds: str, path: Path, table: str) -> list[tuple]:
+    """``rows`` with every value checked against ``kinds`` (JSON columns parsed)."""
+    return [tuple(_checked(v, k, path, table, i, n) for i, (v, k) in enumerate(zip(row, kinds, strict=True)))
+            for n, row in enumerate(rows)]
+
+
+def _checked(value, kind: str, path: Path, table: str, column: int, row: int):
+    if value is None and kind in "IFSJj":
+        return {} if kind == "j" else None
+    if kind in "iI" and isinstance(value, int) and abs(value) < _INT_LIMIT:
+        return value
+    if kind in "fF" and isinstance(value, (int, float)) and abs(value) < 1e12:  # also refuses NaN
+        return value
+    if kind in "sS" and isinstance(value, str):
+        return value
+    if kind in "jJ" and isinstance(value, str):
+        if kind == "j" and not value:
+            return {}
+        try:
+            parsed = json.loads(value)
+        except ValueError:
+            parsed = _BAD
+        if parsed is not _BAD and (kind == "J" or isinstance(parsed, dict)):
+            return parsed
+    names = NAMES.get(table, ())
+    name = names[column] if column < len(names) else f"column {column + 1}"
+    raise BomcError(f"corrupt site store: {table}.{name} of row {row + 1} holds {repr(value)[:40]}", path,
+                    f"{table}.{name}")
+
+
+_BAD = object()

@@ -134,6 +134,39 @@ class ObjectGraph:
             self._session = session
         return [i for i in dict.fromkeys(expected) if i in self.nodes]
 
+    # ------------------------------------------------------------ resume state
+    def pass_state(self) -> dict:
+        """What the graph keeps in memory during a pass besides the nodes the store holds:
+        when each node was last seen, counted misses, this session's removals (move
+        candidates), reported positions, widened gates and first sightings awaiting
+        confirmation. JSON-able; saved with every frame so a resumed pass continues exactly
+        (:mod:`bomc_bt.pass_resume`)."""
+        tentative = getattr(self.policy, "tentative", None)
+        return {
+            "session": self._session,
+            "last_seen": {str(i): n.last_seen for i, n in self.nodes.items() if n.last_seen is not None},
+            "last_miss": {str(i): list(v) for i, v in self._last_miss.items()},
+            "removed_now": sorted(self._removed_now),
+            "reported": {str(i): p.tolist() for i, p in self._reported.items()},
+            "gates": {str(i): g for i in self.nodes if (g := self.index.gate_of(i)) > 0.0},
+            "tentative": None if tentative is None else tentative.to_json(),
+        }
+
+    def restore_pass_state(self, state: dict, removed: dict[int, Node]) -> None:
+        """Put back what :meth:`pass_state` saved; ``removed`` are the store's removed nodes by id."""
+        self._session = state.get("session")
+        for key, seen in state.get("last_seen", {}).items():
+            if int(key) in self.nodes:
+                self.nodes[int(key)].last_seen = float(seen)
+        self._last_miss = {int(k): (int(v[0]), float(v[1])) for k, v in state.get("last_miss", {}).items()}
+        self._removed_now = {i: removed[i] for i in map(int, state.get("removed_now", [])) if i in removed}
+        self._reported = {int(k): np.asarray(v, dtype=float) for k, v in state.get("reported", {}).items()}
+        for key, gate in state.get("gates", {}).items():
+            self.index.widen_gate(int(key), float(gate))
+        tentative = getattr(self.policy, "tentative", None)
+        if tentative is not None and state.get("tentative") is not None:
+            tentative.restore(state["tentative"])
+
     # ---------------------------------------------------------------- mutations
     def insert(self, node: Node) -> None:
         """Put an existing present node (loaded from the store) into the graph."""

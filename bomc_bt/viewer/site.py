@@ -112,8 +112,22 @@ class SiteView:
         return {"a": a, "b": b, **changes}
 
     def _build(self) -> dict[str, Any]:
-        data = _json(self._file(None if self.central else self.site.build_json, "map/build.json"))
-        return data if isinstance(data, dict) else {}
+        payload = self._file(None if self.central else self.site.build_json, "map/build.json")
+        if payload is None:
+            return {}
+        data = _json(payload)
+        where = self._store_name() if self.central else self.site.build_json
+        if data is None:
+            raise BomcError("not a build record (not JSON)", where)
+        texts = ("termination", "reason", "outcome")  # older builds wrote explored_area, path_length, reason
+        numbers = ("explored_area_m2", "path_length_m", "sim_time_s", "explored_area", "path_length")
+        known = [k for k in (*texts, *numbers) if isinstance(data, dict) and k in data]
+        wrong = [k for k in known if not (isinstance(data[k], str) if k in texts else
+                                          isinstance(data[k], (int, float)) and not isinstance(data[k], bool))]
+        if not known or wrong:
+            what = f"{wrong[0]} has the wrong type" if wrong else "none of " + ", ".join((*texts, *numbers))
+            raise BomcError(f"not a build record ({what})", where)
+        return data
 
     def _trajectory(self) -> list[float]:
         import io
