@@ -328,6 +328,10 @@ class SiteStore:
         detail = "detail" if self.version >= 3 else "NULL"
         rows = self._query("SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz, "
                            f"{detail} FROM node_history" + tail, args, EVENT_COLUMNS + "J", "node_history")
+        for n, row in enumerate(rows):
+            if len({v is None for v in row[9:12]}) > 1:  # a previous position is all three or none
+                raise BomcError(f"corrupt site store: node_history row {n + 1} has a partial previous position",
+                                self.path, "node_history.px")
         return [
             Event(kind, nid, cat, np.array([x, y, z]), sess, stamp,
                   None if px is None else np.array([px, py, pz]), conf, text)
