@@ -118,7 +118,10 @@ class SimCamera:
         rgb = _shade(label, depth, objects)
         depth[beyond | (depth < p.depth_min)] = np.nan
         if p.depth_noise > 0.0:
-            depth += _depth_noise(depth.shape, self.seed, stamp) * (np.float32(p.depth_noise) * depth * depth)
+            spread = np.multiply(depth, np.float32(p.depth_noise))  # noise * (sigma * d * d), in place
+            spread *= depth
+            spread *= _depth_noise(depth.shape, self.seed, stamp)
+            depth += spread
         instances = np.maximum(label, 0).astype(np.int32, copy=False)
         categories = {i + 1: str(o.category) for i, o in enumerate(objects)}
         return SimFrame(

@@ -86,10 +86,14 @@ class RayTable:
             z_wall = np.float32(camera_z) + t_wall * self.bz
             below = z_wall < 0.0  # the ray meets the floor before the wall (inf, -inf too)
             on_wall = (z_wall >= 0.0) & (z_wall <= wall_height)
-        depth = np.where(below, self.t_floor, np.where(on_wall, t_wall, np.float32(np.inf)))
-        label = np.where(below, FLOOR, np.where(on_wall, WALL, NONE)).astype(np.int32)
-        label[~np.isfinite(depth)] = NONE
-        return depth.astype(np.float32, copy=False), label
+        depth = np.full(self.shape, np.inf, dtype=np.float32)
+        np.copyto(depth, t_wall, where=on_wall)
+        np.copyto(depth, self.t_floor, where=below)  # below and on_wall never meet
+        label = np.zeros(self.shape, dtype=np.int32)  # NONE
+        np.copyto(label, WALL, where=on_wall)
+        np.copyto(label, FLOOR, where=below)
+        np.copyto(label, NONE, where=~np.isfinite(depth))
+        return depth, label
 
 
 class WallField:
@@ -117,26 +121,27 @@ class WallField:
         start = np.array([(xy[0] - self.origin[0]) / res + 1.0, (xy[1] - self.origin[1]) / res + 1.0])
         dirs = np.stack([np.cos(azimuths), np.sin(azimuths)], axis=1)
         limit = max_range / res
-        travelled = np.zeros(len(azimuths))
         out = np.full(len(azimuths), np.inf)
+        # The beams still flying, compacted as they stop: index, direction, distance travelled.
         active = np.arange(len(azimuths))
+        du, dv = dirs[:, 0].copy(), dirs[:, 1].copy()
+        travelled = np.zeros(len(azimuths))
         h, w = self.solid.shape
+        solid, dt = self.solid.ravel(), self.dt.ravel()
         hits: list[tuple[np.ndarray, np.ndarray]] = []  # (azimuth, travelled at hit), refined together
         while active.size:
-            pos = start + dirs[active] * travelled[active, None]
-            col = np.clip(pos[:, 0].astype(np.intp), 0, w - 1)
-            row = np.clip(pos[:, 1].astype(np.intp), 0, h - 1)
-            outside = (pos[:, 0] < 0) | (pos[:, 1] < 0)
-            hit = self.solid[row, col] | outside
+            pu, pv = start[0] + du * travelled, start[1] + dv * travelled
+            cell = (np.minimum(np.maximum(pv.astype(np.intp), 0), h - 1) * w
+                    + np.minimum(np.maximum(pu.astype(np.intp), 0), w - 1))
+            hit = solid[cell] | (pu < 0) | (pv < 0)
             if hit.any():
-                idx = active[hit]
-                hits.append((idx, travelled[idx]))
-            keep = ~hit
-            active, row, col = active[keep], row[keep], col[keep]
-            step = np.maximum(self.dt[row, col] - self._SAFETY, self._MIN_STEP)
-            travelled[active] += step
-            far = travelled[active] > limit
-            active = active[~far]
+                hits.append((active[hit], travelled[hit]))
+                keep = ~hit
+                active, du, dv, travelled, cell = active[keep], du[keep], dv[keep], travelled[keep], cell[keep]
+            travelled = travelled + np.maximum(dt[cell] - self._SAFETY, self._MIN_STEP)
+            flying = travelled <= limit
+            if not flying.all():
+                active, du, dv, travelled = active[flying], du[flying], dv[flying], travelled[flying]
         if hits:
             idx, hit_at = (np.concatenate(parts) for parts in zip(*hits, strict=True))
             out[idx] = self._refine(start, dirs[idx], hit_at) * res
