@@ -201,6 +201,8 @@ class GridPlanner:
         w, cost, moves = self._w, self._cost, self._moves
         start, goal = self._flat(*s), self._flat(*g)
         goal_row, goal_col = divmod(goal, w)
+        row_gap = [abs(r - goal_row) for r in range(len(cost) // w)]  # |dr| per padded row
+        col_gap = [abs(c - goal_col) for c in range(w)]
         # A hair above the weight breaks ties towards the goal (fewer expansions in the open).
         scale = self.params.heuristic_weight * (1.0 + 1e-3)
         diagonal = _SQRT2 - 2.0
@@ -232,8 +234,8 @@ class GridPlanner:
                     best[j] = ng
                     parent[j] = i
                     row, col = divmod(j, w)
-                    dr, dc = abs(row - goal_row), abs(col - goal_col)
-                    push(heap, (ng + (dr + dc + diagonal * min(dr, dc)) * scale, ng, j))
+                    dr, dc = row_gap[row], col_gap[col]
+                    push(heap, (ng + (dr + dc + diagonal * (dr if dr < dc else dc)) * scale, ng, j))
         return None
 
     def distances_from(self, start_xy) -> np.ndarray:
