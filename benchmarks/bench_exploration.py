@@ -267,7 +267,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--suite", default="hospital", help="hospital, maps, office or world paths, comma separated")
     ap.add_argument("--explorers", default="gain,dwfe,baseline")
-    ap.add_argument("--starts", type=int, default=20)
+    ap.add_argument("--starts", type=int, default=20, help="starts per world; 0: the world's own start")
     ap.add_argument("--minutes", type=float, default=15.0, help="robot time per run; 0: until the build ends")
     ap.add_argument("--at", type=float, default=15.0, help="minutes at which the covered area is compared")
     ap.add_argument("--sample", type=float, default=10.0, help="s of robot time between coverage samples")
@@ -286,7 +286,9 @@ def main() -> None:
         root = Path(tmp)
         jobs = []
         for base in suite_worlds(args.suite, root, args.office_size, args.office_seed):
-            starts = sample_starts(load_world(base), args.starts, args.clearance, args.seed)
+            world = load_world(base)
+            starts = ([world.start] if args.starts == 0
+                      else sample_starts(world, args.starts, args.clearance, args.seed))
             for i, start in enumerate(starts):
                 world_path = write_world(base, start, root / f"{base.stem}-{i:02d}.yaml")
                 for e in explorers:

@@ -29,7 +29,7 @@ import numpy as np
 from bomc_bt.exploration.blacklist import Blacklist
 from bomc_bt.exploration.dwfe import Choice, ExplorationParams, choose_frontier
 from bomc_bt.exploration.frontiers import Frontier, find_frontiers, touches_unknown
-from bomc_bt.exploration.gain import Standoffs
+from bomc_bt.exploration.gain import Standoffs, visible_unknown
 from bomc_bt.exploration.gain_choice import Candidate, choose_by_gain
 from bomc_bt.exploration.progress import AreaWatch, Trail
 from bomc_bt.exploration.reachability import Reachability
@@ -229,20 +229,27 @@ class Explorer:
                                 f"{self._streak_backouts} back-out(s) (last: {why})")
 
     def border(self, grid: OccupancyGrid, robot_xy: tuple[float, float] | None) -> dict:
-        """The unknown border left: frontier count and length, reachable and not, and how
-        many of the reachable ones are blacklisted (the build record's ``frontiers_left``)."""
+        """The unknown border left: frontier count and length, reachable and not, how many
+        of the reachable ones are blacklisted and, for the gain explorer, how many of the
+        others would add less than ``min_gain`` (the build record's ``frontiers_left``)."""
         if robot_xy is None:
             return {}
-        found = find_frontiers(grid, robot_xy, min_size=self.params.min_size_cells(grid.resolution))
-        if self.planner is not None:
-            reachable, unreachable = Reachability(grid, self.planner, robot_xy).split(found)
-            reach = [f for f, _ in reachable]
-        else:
-            reach, unreachable = found, []
-        skipped = len(reach) - len(self.blacklist.filter(reach))
-        return {"reachable": len(reach), "reachable_m": round(sum(f.length for f in reach), 2),
-                "unreachable": len(unreachable), "unreachable_m": round(sum(f.length for f in unreachable), 2),
-                "blacklisted": skipped, "readmitted": self.blacklist.readmitted}
+        gain = self.params.explorer == "gain"
+        planner = self.gain_planner if gain else self.planner
+        reach = Reachability(grid, planner, robot_xy) if planner is not None else None
+        candidates = self._candidates(grid, robot_xy, reach)
+        found = [c.frontier for c in candidates]
+        allowed = {id(f) for f in self.blacklist.filter(found)}
+        out = {"reachable": len(found), "reachable_m": round(sum(f.length for f in found), 2),
+               "unreachable": len(self.unreachable),
+               "unreachable_m": round(sum(f.length for f in self.unreachable), 2),
+               "blacklisted": len(found) - len(allowed), "readmitted": self.blacklist.readmitted}
+        if gain:
+            gains = visible_unknown(grid, [c.goal for c in candidates if id(c.frontier) in allowed],
+                                    self.params.gain_radius)
+            out["below_min_gain"] = int(np.count_nonzero(gains < self.params.min_gain))
+            out["best_gain_m2"] = round(float(gains.max()), 2) if len(gains) else 0.0
+        return out
 
     def _blacklist(self, goal: Goal, grid: OccupancyGrid | None, robot_xy, permanent: bool = False) -> None:
         # The target and the frontier's centroid: the blacklist matches frontiers by their
