@@ -77,6 +77,7 @@ class RunRecord:
     termination: str
     goals: int
     failed_goals: int
+    reason: str = ""
     t90: float | None = None
     t95: float | None = None
     path90: float | None = None
@@ -203,7 +204,7 @@ def one_run(job: tuple) -> RunRecord:
     t95, p95 = first_at(probe.curve, 0.95 * probe.reachable)
     return RunRecord(world_name, explorer, index, probe.reachable, at_curve[-1], probe.curve[-1][1],
                      float(s["path_length_m"]), end, wall, str(s["termination"]), int(s["goals"]),
-                     int(s["failed_goals"]), t90, t95, p90, p95, probe.curve)
+                     int(s["failed_goals"]), str(s.get("reason", "")), t90, t95, p90, p95, probe.curve)
 
 
 def interval(ratios: list[float]) -> str:
@@ -301,7 +302,8 @@ def main() -> None:
                 records.append(r)
                 print(f"  [{len(records):>3}/{len(jobs)}] {r.world} start {r.start:>2} {r.explorer:<8} "
                       f"covered {r.covered_end_m2:7.1f}/{r.reachable_m2:.0f} m², path {r.path_m:6.1f} m, "
-                      f"{r.sim_s:.0f} s {r.termination}, wall {r.wall_s:5.1f} s", file=sys.stderr, flush=True)
+                      f"{r.sim_s:.0f} s {r.termination} ({r.reason}), wall {r.wall_s:5.1f} s", file=sys.stderr,
+                      flush=True)
     print(f"total wall time {time.perf_counter() - t0:.0f} s")
     for world in dict.fromkeys(r.world for r in records):
         print_world(world, records, explorers, args.at)

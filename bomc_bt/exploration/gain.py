@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -46,7 +45,7 @@ class Standoffs:
         self.grid = grid
         self.max_standoff = max_standoff
         blocked = grid.occupied_mask() | grid.unknown_mask()
-        room = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        room = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_5)
         room = room * grid.resolution - 0.5 * grid.resolution
         f = reach.factor
         on_component = np.kron(reach.component, np.ones((f, f), dtype=bool))[:grid.height, :grid.width]
@@ -56,7 +55,7 @@ class Standoffs:
         self.any = bool(safe.any())
         # For every cell, the nearest safe cell (distance and flat index): one pass.
         dist, labels = cv2.distanceTransformWithLabels((~safe).astype(np.uint8), cv2.DIST_L2,
-                                                       cv2.DIST_MASK_PRECISE, labelType=cv2.DIST_LABEL_PIXEL)
+                                                       cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL)
         rows, cols = np.nonzero(safe)
         index = np.zeros(int(labels.max()) + 1, dtype=np.int64)
         index[labels[rows, cols]] = rows * grid.width + cols
@@ -82,9 +81,10 @@ class Standoffs:
 
 
 def ray_offsets(radius: float, resolution: float, rays: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sample offsets (rays, steps) in cells along ``rays`` directions, and each sample's
-    share of the disc's area in m² (``r * dtheta * dr``), for :func:`visible_unknown`."""
-    step = resolution
+    """Sample offsets (rays, steps) in cells along ``rays`` directions, every two cells, and
+    each sample's share of the disc's area in m² (``r * dtheta * dr``), for :func:`visible_unknown`.
+    (:func:`visible_unknown` thickens walls by a cell first, so a two-cell step never skips one.)"""
+    step = 2.0 * resolution
     r = np.arange(0.5 * step, radius, step)
     theta = np.linspace(0.0, 2.0 * math.pi, rays, endpoint=False)
     dx = np.cos(theta)[:, None] * r[None, :] / resolution
@@ -102,13 +102,14 @@ def _rays(grid: OccupancyGrid, points, radius: float, rays: int):
     cols = np.floor(pcol[:, None, None] + 0.5 + dc[None]).astype(np.int64)
     inside = (rows >= 0) & (rows < grid.height) & (cols >= 0) & (cols < grid.width)
     rc, cc = np.clip(rows, 0, grid.height - 1), np.clip(cols, 0, grid.width - 1)
+    walls = cv2.dilate(grid.occupied_mask().view(np.uint8), np.ones((3, 3), np.uint8))
     values = grid.data[rc, cc]
-    blocked = np.maximum.accumulate(~inside | (values >= 50), axis=2)
+    blocked = np.maximum.accumulate(~inside | (walls[rc, cc] > 0), axis=2)
     return (values < 0) & ~blocked, weight
 
 
 def visible_unknown(grid: OccupancyGrid, points: list[tuple[float, float]], radius: float,
-                    rays: int = 120) -> np.ndarray:
+                    rays: int = 72) -> np.ndarray:
     """Unknown area (m²) visible within ``radius`` of each point: rays stop at the first
     occupied cell (or the map edge), unknown cells let them pass (the optimistic view)."""
     if not points:
@@ -118,17 +119,23 @@ def visible_unknown(grid: OccupancyGrid, points: list[tuple[float, float]], radi
 
 
 def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: list[tuple[float, float]],
-                   utility: Callable[[int, float], float]) -> list[float]:
+                   value: np.ndarray, offset: float) -> list[float]:
     """Path length (m) from the robot to each goal over the planner's reachable area, as
-    far as needed to know the best goal by ``utility(i, distance)`` (higher is better,
-    never increasing with distance); goals not needed keep a lower bound of their path
-    (and are then known not to win); unreachable goals get infinity."""
+    far as needed to know the goal with the best ``value / (path + offset)``; goals not
+    needed keep a lower bound of their path (they are then known not to win), unreachable
+    goals get infinity.
+
+    The search stops once even the straight-line distance cannot make an unreached goal
+    beat the best reached one (checked every half metre of search radius, vectorised), so
+    a decision costs a neighbourhood, not the building.
+    """
     res = reach.grid.resolution * reach.factor
     comp = reach.component
     h, w = comp.shape
+    value = np.asarray(value, dtype=float)
     cells = [tuple(int(v) // reach.factor for v in reach.grid.world_to_cell(*g)) for g in goals]
-    straight = [math.dist(robot_xy, g) for g in goals]
-    out = list(straight)
+    straight = np.array([math.dist(robot_xy, g) for g in goals])
+    out = straight.tolist()
     start = _start(comp, reach, robot_xy)
     if start is None or not goals:
         return out
@@ -136,8 +143,8 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
     for i, (r, c) in enumerate(cells):
         if 0 <= r < h and 0 <= c < w:
             targets.setdefault(r * w + c, []).append(i)
-    open_goals = set(range(len(goals)))
-    best = -math.inf
+    open_goals = np.ones(len(goals), dtype=bool)
+    best, next_check = -math.inf, 0.0
     wp = w + 2
     ok = np.pad(comp, 1, constant_values=False).ravel().tolist()
     moves = ((1, 1.0), (-1, 1.0), (wp, 1.0), (-wp, 1.0), (wp + 1, _SQRT2), (wp - 1, _SQRT2),
@@ -145,18 +152,21 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
     s = (start[0] + 1) * wp + start[1] + 1
     dist = {s: 0.0}
     heap = [(0.0, s)]
-    while heap and open_goals:
+    while heap and open_goals.any():
         d, i = heapq.heappop(heap)
         if d > dist.get(i, math.inf):
             continue
         metres = d * res
-        if best > -math.inf and all(utility(k, max(metres, straight[k])) <= best for k in open_goals):
-            heapq.heappush(heap, (d, i))
-            break
+        if best > -math.inf and metres >= next_check:
+            next_check = metres + 0.5
+            bound = value[open_goals] / (np.maximum(straight[open_goals], metres) + offset)
+            if bound.max() <= best:
+                heapq.heappush(heap, (d, i))
+                break
         for k in targets.get((i // wp - 1) * w + (i % wp - 1), ()):
             out[k] = max(metres, straight[k] - res)
-            open_goals.discard(k)
-            best = max(best, utility(k, out[k]))
+            open_goals[k] = False
+            best = max(best, value[k] / (out[k] + offset))
         for step, length in moves:
             j = i + step
             if ok[j]:
@@ -164,7 +174,7 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
                 if nd < dist.get(j, math.inf):
                     dist[j] = nd
                     heapq.heappush(heap, (nd, j))
-    for k in open_goals:
+    for k in np.flatnonzero(open_goals):
         out[k] = max(out[k], heap[0][0] * res) if heap else math.inf
     return out
 

@@ -61,16 +61,14 @@ def choose_by_gain(grid: OccupancyGrid, candidates: list[Candidate], robot_xy: t
         return Choice(None, "none", math.inf,
                       f"remaining gain too small: {len(open_)} frontier(s), the best would add {best:.2f} m² "
                       f"(< min_gain {params.min_gain:g} m²)"), None
-    bonus = [1.0 + (params.hysteresis if previous_anchor is not None
-                    and math.dist(c.anchor, previous_anchor) <= params.hysteresis_radius else 0.0) for c in worth]
-
-    def utility(k: int, distance: float) -> float:
-        return bonus[k] * worth[k].gain / (distance + params.travel_offset)
-
-    distances = path_distances(reach, robot_xy, [c.goal for c in worth], utility)
+    value = [c.gain * (1.0 + (params.hysteresis if previous_anchor is not None
+                              and math.dist(c.anchor, previous_anchor) <= params.hysteresis_radius else 0.0))
+             for c in worth]
+    distances = path_distances(reach, robot_xy, [c.goal for c in worth], value, params.travel_offset)
     for c, d in zip(worth, distances, strict=True):
         c.distance = d
-    scored = [(utility(k, c.distance), -c.distance, -k) for k, c in enumerate(worth) if math.isfinite(c.distance)]
+    scored = [(value[k] / (c.distance + params.travel_offset), -c.distance, -k)
+              for k, c in enumerate(worth) if math.isfinite(c.distance)]
     if not scored:
         return Choice(None, "none", math.inf, f"none of {len(worth)} frontier goal(s) has a path"), None
     u, _, k = max(scored)
