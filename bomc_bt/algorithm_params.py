@@ -101,9 +101,11 @@ class RelocalizationParams:
 
 @dataclass
 class ExplorationParams:
-    """Tunables of the exploration step (DWFE or the explore_lite baseline)."""
+    """Tunables of the exploration step (the gain explorer, DWFE or the explore_lite baseline)."""
 
-    explorer: Literal["dwfe", "baseline"] = "dwfe"  # [choice] the paper's DWFE or the explore_lite baseline
+    # [choice] gain: most new map per metre of path (docs/exploration.md); dwfe: the paper's
+    # Algorithm 1; baseline: explore_lite's ranking
+    explorer: Literal["gain", "dwfe", "baseline"] = "gain"
     # [m] r_l, the local window: a few metres is one room or one corridor segment for a
     # Fetch-class base: about what its laser clears well from one stop (indoor returns are
     # dense up to ~5 m), and small enough that the window does not reach into the next room.
@@ -140,17 +142,30 @@ class ExplorationParams:
     backout_distance: float = 1.5  # [m] back along the trajectory driven, towards where it came from
     max_backouts: int = 2  # [count] back-outs without progress before "stuck" may be declared
     # [bool] frontiers count only where the planner can take the robot (its clearance, unknown
-    # treated as a wall); the others are reported as unreachable border, never chosen
+    # treated as a wall); the others are reported as unreachable border, never chosen. The
+    # gain explorer always counts this way: it ranks by path length on the planner's grid.
     planner_reachable: bool = True
+    # Goals are sent to a standoff: a reachable cell at least the robot's clearance from every
+    # occupied and unknown cell, so a wall the lidar then reveals cannot put the goal inside
+    # the planner's lethal zone (the cause of every failed goal measured on generated offices).
+    max_standoff: float = 1.0  # [m] how far from its frontier cell a standoff goal may be
+    # The gain explorer (explorer: gain) ranks frontiers by gain / (path + travel_offset).
+    gain_radius: float = 6.0  # [m] how far the lidar's view is counted as information gain
+    # [m2] frontiers whose view would add less are no goals; none left: done. On generated
+    # offices a view estimated below 3 m2 added 0.6-1 m2 of map for 20-27 s of driving.
+    min_gain: float = 3.0
+    travel_offset: float = 2.0  # [m] fixed cost of any goal (stop, turn, decide), added to its path
+    hysteresis: float = 0.25  # [-] utility bonus of the frontier the last goal served
+    hysteresis_radius: float = 1.5  # [m] a frontier cell this near the last goal's is the same frontier
 
     def __post_init__(self) -> None:
-        if self.explorer not in ("dwfe", "baseline"):
-            raise ValueError(f"explorer: must be 'dwfe' or 'baseline', got {self.explorer!r}")
+        if self.explorer not in ("gain", "dwfe", "baseline"):
+            raise ValueError(f"explorer: must be 'gain', 'dwfe' or 'baseline', got {self.explorer!r}")
         _positive(self, "local_radius", "global_radius", "progress_timeout", "no_progress_time",
-                  "blacklist_readmit_radius", "blacklist_near_radius")
+                  "blacklist_readmit_radius", "blacklist_near_radius", "gain_radius", "max_standoff")
         _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale", "min_frontier_size",
                       "blacklist_radius", "max_time", "min_progress_area", "blacklist_readmit_area",
-                      "backout_distance")
+                      "backout_distance", "min_gain", "travel_offset", "hysteresis", "hysteresis_radius")
         if self.global_radius < self.local_radius:
             raise ValueError("global_radius: must be at least local_radius "
                              f"({self.global_radius} < {self.local_radius})")

@@ -42,7 +42,7 @@ def parser() -> argparse.ArgumentParser:
     common(b, world_required=False)
     b.add_argument("--seed", type=arg.seed, default=0)
     b.add_argument("--max-time", type=float, default=None, help="simulated seconds (default: until done)")
-    b.add_argument("--explorer", choices=["dwfe", "baseline"], default=None)
+    b.add_argument("--explorer", choices=["gain", "dwfe", "baseline"], default=None)
     b.add_argument("--tree", default=None, help="tree file (default trees/build.yaml)")
     b.add_argument("--new-map", action="store_true",
                    help="re-build a site that has an object graph: archive the graph with its map (README: Sites)")
