@@ -36,6 +36,7 @@ def session_summary(ctx) -> dict[str, Any]:
         },
         "traversal": ctx.traverse.summary() if ctx.traverse else {},
         "localized": read_key(LOCALIZED_KEY, "no"),
+        "recoveries": ctx.watch.summary() if getattr(ctx, "watch", None) else [],
     }
 
 
@@ -81,6 +82,9 @@ def report_markdown(s: dict[str, Any]) -> str:
     if regions:
         lines.append("- largest unobserved regions:")
         lines += [f"  - ({r['x']}, {r['y']}): {r['area_m2']} m²" for r in regions[:10]]
+    for r in s.get("recoveries", []):
+        lines.append(f"- at {r['stamp']} s: {r['trigger']}; {r['cause']}: {r['detail']}; "
+                     f"did: {r['action'] or 'nothing'}{'; ' + r['result'] if r['result'] else ''}")
     if s.get("reason"):
         lines.append(f"- reason: {s['reason']}")
     return "\n".join(lines) + "\n"

@@ -29,10 +29,11 @@ import numpy as np
 from bomc_bt.exploration.blacklist import Blacklist
 from bomc_bt.exploration.dwfe import Choice, ExplorationParams, choose_frontier
 from bomc_bt.exploration.frontiers import Frontier, find_frontiers
-from bomc_bt.exploration.progress import AreaWatch, Trail
+from bomc_bt.exploration.progress import AreaWatch
 from bomc_bt.exploration.reachability import Reachability
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.planner import PlannerParams
+from bomc_bt.trail import Trail
 
 EXPLORING = "exploring"
 DONE = "done"
