@@ -54,7 +54,7 @@ class CheckProgress(Leaf):
         watch = watch_of(ctx)
         state = ctx.traverse
         if state is not None and state.current is not None:
-            watch.record(state.current, state.states[state.current], ctx.now())
+            watch.record(state.current, state.states[state.current], ctx.now(), ctx.robot.distance_travelled)
         why = watch.trigger(ctx.now(), self.params.max_missed, self.params.no_progress_time)
         if why is None:
             self.feedback_message = f"getting somewhere ({watch.missed_in_row} missed in a row)"
@@ -85,8 +85,9 @@ class DiagnoseStuck(Leaf):
         failed = [_xy(state.waypoint(i)) for i in watch.missed]
         remaining = [_xy(state.waypoint(i)) for i, s in enumerate(state.states) if s in (PENDING, MISSED)]
         watch.start_round(ctx.now(), self.get("stuck") or "stuck")
+        moved = watch.moved_since_first_miss(ctx.robot.distance_travelled)
         found = diagnose(ctx.robot.live_map(), ctx.robot.pose(), ctx.robot.scan(), failed, remaining,
-                         ctx.config.recovery, ctx.config.sim.planner.robot_radius)
+                         ctx.config.recovery, ctx.config.sim.planner.robot_radius, moved)
         watch.log[-1].cause, watch.log[-1].detail = found.cause, found.detail
         self.set("stuck_cause", found)
         self.feedback_message = str(found)

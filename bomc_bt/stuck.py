@@ -16,7 +16,9 @@ behind the recovery subtree of ``trees/recover.yaml``:
   - ``stale_obstacles``: with the map and what the lidar sees *now*, a waypoint that just
     failed is reachable, so the navigation's obstacle layer holds what is no longer there;
   - ``boxed_in``: none of the waypoints left is reachable past the objects the lidar sees
-    that the map does not have, though the map alone has a way: the robot is shut in;
+    that the map does not have, though the map alone has a way: the robot is shut in; or
+    the robot has not moved while the waypoints failed (wedged: the way looks open, but
+    every goal fails where it stands);
   - ``cut_off``: the failed waypoints lie behind such objects, but others are reachable:
     the robot is fine, those waypoints are blocked, the pass carries on.
 
@@ -61,10 +63,11 @@ class Diagnosis:
 
 def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
              failed: Sequence[tuple[float, float]], remaining: Sequence[tuple[float, float]],
-             params: RecoveryParams, robot_radius: float) -> Diagnosis:
+             params: RecoveryParams, robot_radius: float, moved: float | None = None) -> Diagnosis:
     """Why waypoints ``failed`` in a row, given the ``remaining`` ones (see the module docstring).
 
     ``robot_radius`` is the planner's: a way must keep that far from every obstacle.
+    ``moved``: metres driven since the first of the failed waypoints (None: not known).
     """
     if pose is None:
         return Diagnosis(LOST, "the robot is not localized", 0.0, 0.0)
@@ -80,6 +83,9 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     area = float(np.count_nonzero(now)) * grid.resolution ** 2
     where = _at(blockers)
     if any(_inside(grid, now, xy) for xy in failed):
+        if moved is not None and failed and moved < params.wedged_distance:
+            return Diagnosis(BOXED_IN, f"wedged: the way looks open, but the robot moved {moved:.1f} m while "
+                                       f"{len(failed)} waypoint(s) failed{where}", agreement, area, blockers)
         return Diagnosis(STALE_OBSTACLES, "the map and the lidar show a way to the waypoints that failed; the "
                                           "navigation's obstacle layer holds obstacles that are gone",
                          agreement, area, blockers)
@@ -180,9 +186,11 @@ class StuckWatch:
         self.rounds = 0  # recovery rounds since a waypoint was last reached
         self.log: list[Recovery] = []
         self.missed: list[int] = []  # the waypoints missed in a row, in order
+        self.odometer_at_first_miss: float | None = None  # metres driven when the spell began
 
-    def record(self, index: int | None, state: str, now: float) -> None:
-        """Waypoint ``index`` ended as ``state`` (called once per waypoint the loop finished)."""
+    def record(self, index: int | None, state: str, now: float, odometer: float | None = None) -> None:
+        """Waypoint ``index`` ended as ``state`` (called once per waypoint the loop finished);
+        ``odometer`` is the metres the robot had driven by then."""
         if index is None:
             return
         if state in VISITED_STATES:
@@ -190,9 +198,18 @@ class StuckWatch:
                 self.log[-1].result = f"waypoint {index + 1} reached {now - self.log[-1].stamp:.0f} s later"
             self.missed_in_row, self.since, self.rounds = 0, now, 0
             self.missed.clear()
+            self.odometer_at_first_miss = None
         elif state == "missed":
+            if not self.missed:
+                self.odometer_at_first_miss = odometer
             self.missed_in_row += 1
             self.missed.append(index)
+
+    def moved_since_first_miss(self, odometer: float) -> float | None:
+        """Metres driven since the spell of missed waypoints began (None: not known)."""
+        if self.odometer_at_first_miss is None:
+            return None
+        return odometer - self.odometer_at_first_miss
 
     def trigger(self, now: float, max_missed: int, no_progress_time: float) -> str | None:
         """Why the pass should look for a cause now, or None while it is getting somewhere."""

@@ -87,6 +87,14 @@ def test_a_way_the_lidar_sees_open_means_the_obstacle_layer_is_stale():
     assert found.blockers == []
 
 
+def test_a_robot_that_did_not_move_while_waypoints_failed_is_wedged_not_misled_by_its_layer():
+    saved = two_rooms()
+    found = diagnose(saved, ROBOT, cast(saved, ROBOT), BEYOND, [(8.0, 2.5)], PARAMS, RADIUS, moved=0.2)
+    assert found.cause == BOXED_IN and found.detail.startswith("wedged: the way looks open")
+    moved_on = diagnose(saved, ROBOT, cast(saved, ROBOT), BEYOND, [(8.0, 2.5)], PARAMS, RADIUS, moved=6.0)
+    assert moved_on.cause == STALE_OBSTACLES
+
+
 def test_a_scan_that_does_not_fit_the_map_at_the_pose_means_the_pose_is_lost():
     saved = two_rooms()
     truth = Pose2D(8.0, 0.8, 0.0)
@@ -107,7 +115,8 @@ def test_a_robot_pressed_against_the_object_still_finds_its_own_room():
 def test_the_watch_starts_a_round_after_missed_waypoints_in_a_row_or_no_progress():
     watch = StuckWatch(start=0.0)
     for i in range(2):
-        watch.record(i, "missed", 10.0 * i)
+        watch.record(i, "missed", 10.0 * i, odometer=100.0 + i)
+    assert watch.moved_since_first_miss(104.0) == 4.0
     assert watch.trigger(20.0, max_missed=3, no_progress_time=600.0) is None
     watch.record(2, "visited", 30.0)  # one reached: the count starts again
     for i in range(3, 6):

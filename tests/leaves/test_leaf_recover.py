@@ -30,8 +30,10 @@ def start_pass(ctx, n: int = 6) -> TraversalState:
     return ctx.traverse
 
 
-def finish(state: TraversalState, outcome: str) -> None:
+def finish(state: TraversalState, outcome: str, robot=None) -> None:
     state.mark(state.next(), outcome)
+    if robot is not None:
+        robot.distance_travelled += 3.0  # it drove about, round the detours
 
 
 def test_check_progress_fails_and_says_why_after_three_missed_in_a_row(ctx):
@@ -58,7 +60,7 @@ def test_diagnose_writes_the_cause_and_fails_once_the_rounds_are_used_up(ctx, ro
     ctx.config.recovery.max_rounds = 1  # the leaf reads it from the configuration
     state = start_pass(ctx)
     for _ in range(3):
-        finish(state, MISSED)
+        finish(state, MISSED, robot)
         CheckProgress("Check", CheckProgressParams(), ctx).tick_once()
     leaf = DiagnoseStuck("Find Out Why", None, ctx)
     # an open room, no scan: the map shows a way to the failed waypoints -> the layer is stale
@@ -69,9 +71,10 @@ def test_diagnose_writes_the_cause_and_fails_once_the_rounds_are_used_up(ctx, ro
     assert tick(leaf) == Status.FAILURE and "1 recovery round(s) did not help" in leaf.feedback_message
 
 
-def test_stuck_cause_is_picks_the_branch_of_the_diagnosis(ctx):
+def test_stuck_cause_is_picks_the_branch_of_the_diagnosis(ctx, robot):
     finish(start_pass(ctx), MISSED)
     CheckProgress("Check", CheckProgressParams(), ctx).tick_once()
+    robot.distance_travelled += 3.0
     DiagnoseStuck("Why", DiagnoseStuckParams(), ctx).tick_once()
     assert tick(StuckCauseIs("Stale", StuckCauseIsParams(STALE_OBSTACLES), ctx)) == Status.SUCCESS
     assert tick(StuckCauseIs("Boxed", StuckCauseIsParams("boxed_in"), ctx)) == Status.FAILURE
@@ -102,8 +105,8 @@ def test_end_pass_early_stops_the_robot_and_records_the_diagnosis(ctx, robot):
     state = start_pass(ctx)
     finish(state, MISSED)
     CheckProgress("Check", CheckProgressParams(), ctx).tick_once()
-    DiagnoseStuck("Why", DiagnoseStuckParams(), ctx).tick_once()
+    DiagnoseStuck("Why", DiagnoseStuckParams(), ctx).tick_once()  # it never moved: wedged
     leaf = EndPassEarly("End", None, ctx)
     assert tick(leaf) == Status.FAILURE and robot.cancelled_all
     assert ctx.outcome == ENDED_EARLY
-    assert ctx.reason.startswith("pass ended early at waypoint 1/6") and "stale_obstacles" in ctx.reason
+    assert ctx.reason.startswith("pass ended early at waypoint 1/6") and "boxed_in: wedged" in ctx.reason
