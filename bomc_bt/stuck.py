@@ -187,6 +187,7 @@ class StuckWatch:
         self.log: list[Recovery] = []
         self.missed: list[int] = []  # the waypoints missed in a row, in order
         self.odometer_at_first_miss: float | None = None  # metres driven when the spell began
+        self.spell_start = 0  # index in ``log`` of the first round since a waypoint was last reached
 
     def record(self, index: int | None, state: str, now: float, odometer: float | None = None) -> None:
         """Waypoint ``index`` ended as ``state`` (called once per waypoint the loop finished);
@@ -199,6 +200,7 @@ class StuckWatch:
             self.missed_in_row, self.since, self.rounds = 0, now, 0
             self.missed.clear()
             self.odometer_at_first_miss = None
+            self.spell_start = len(self.log)
         elif state == "missed":
             if not self.missed:
                 self.odometer_at_first_miss = odometer
@@ -243,7 +245,8 @@ class StuckWatch:
 
 def diagnosis_line(d: Diagnosis, watch: StuckWatch, waypoint: str) -> str:
     """The sentence an early-ended pass reports (session report and CLI line)."""
-    acted = [[a for a in r.action.split(", ") if a and a not in ("none", "end_pass")] for r in watch.log]
+    spell = watch.log[watch.spell_start:]  # the rounds since a waypoint was last reached
+    acted = [[a for a in r.action.split(", ") if a and a not in ("none", "end_pass")] for r in spell]
     tried = sorted({a for actions in acted for a in actions})
     rounds = sum(1 for actions in acted if actions)
     after = f" after {rounds} recovery round(s) ({', '.join(tried)})" if tried else ""

@@ -110,3 +110,51 @@ def test_end_pass_early_stops_the_robot_and_records_the_diagnosis(ctx, robot):
     assert tick(leaf) == Status.FAILURE and robot.cancelled_all
     assert ctx.outcome == ENDED_EARLY
     assert ctx.reason.startswith("pass ended early at waypoint 1/6") and "boxed_in: wedged" in ctx.reason
+
+
+def keep_going_tree(ctx, tmp_path):
+    """The shipped ``keep_going`` subtree (trees/recover.yaml) as a tree of its own."""
+    from bomc_bt.config import resource_dir
+    from bomc_bt.tree.loader import load_tree
+    from bomc_bt.tree.registry import load_registry
+
+    path = tmp_path / "keep_going.yaml"
+    path.write_text("version: 1\ninclude: [recover.yaml]\nroot: {subtree: keep_going}\n")
+    return load_tree(path, load_registry(), ctx, clock=ctx.now, extra_search_paths=[resource_dir("trees")])
+
+
+def run_once(root, robot, limit: int = 200):
+    """Tick ``root`` until it is no longer RUNNING (the scripted robot's clock advancing)."""
+    for _ in range(limit):
+        root.tick_once()
+        if root.status != Status.RUNNING:
+            return root.status
+        robot.step()
+    raise AssertionError("the subtree kept running")
+
+
+def test_the_shipped_recovery_clears_a_stale_layer_then_ends_the_pass_when_nothing_helps(ctx, robot, tmp_path):
+    """Tick-simulation of Keep Going on the scripted robot: three missed waypoints start a
+    round (stale layer: cleared, the pass goes on); a waypoint reached resets it; rounds
+    with nothing reached in between end the pass with the diagnosis."""
+    root = keep_going_tree(ctx, tmp_path)
+    state = start_pass(ctx, 14)
+    outcomes = []
+    for _ in range(3):
+        finish(state, MISSED, robot)
+        outcomes.append(run_once(root, robot))
+    assert outcomes == [Status.SUCCESS] * 3 and robot.costmap_clears == 1  # round 1: clear, go on
+    assert ctx.watch.log[0].action == "clear_obstacles" and ctx.outcome == ""
+    finish(state, VISITED, robot)  # it helped: a waypoint reached
+    assert run_once(root, robot) == Status.SUCCESS and ctx.watch.log[0].result.startswith("waypoint 4 reached")
+    for _ in range(6):  # two more rounds (max_rounds: 2), nothing reached in between: both act
+        finish(state, MISSED, robot)
+        assert run_once(root, robot) == Status.SUCCESS
+    assert robot.costmap_clears == 3 and ctx.outcome == ""
+    for _ in range(3):  # a third round is one too many
+        finish(state, MISSED, robot)
+        last = run_once(root, robot)
+    assert last == Status.FAILURE and robot.costmap_clears == 3
+    assert ctx.outcome == ENDED_EARLY and robot.cancelled_all
+    assert ctx.reason.startswith("pass ended early at waypoint 13/14 after 2 recovery round(s) (clear_obstacles): "
+                                 "stale_obstacles")
