@@ -48,6 +48,6 @@ class EndSession(Leaf):
         ctx = self.context
         ctx.outcome = ctx.outcome or self.params.outcome  # a leaf that ended the pass early said why
         summary = write_session_report(ctx)
-        self.feedback_message = (f"session {ctx.session} {self.params.outcome}: {summary['nodes']} nodes, "
+        self.feedback_message = (f"session {ctx.session} {ctx.outcome}: {summary['nodes']} nodes, "
                                  f"coverage {summary['coverage']['fraction']:.0%}")
         return Status.SUCCESS
