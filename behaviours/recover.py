@@ -43,7 +43,8 @@ class CheckProgressParams:
 @register("CheckProgress")
 class CheckProgress(Leaf):
     """Records how the waypoint just finished ended; fails (writing ``stuck``) when the
-    pass stopped getting anywhere, so the recovery runs."""
+    pass stopped getting anywhere, so the recovery runs. A missed waypoint tried again at
+    the end of the loop and missed again does not count (it was blocked before)."""
 
     Params = CheckProgressParams
     config_params = {"max_missed": "recovery.max_missed", "no_progress_time": "recovery.no_progress_time"}
@@ -53,8 +54,11 @@ class CheckProgress(Leaf):
         ctx = self.context
         watch = watch_of(ctx)
         state = ctx.traverse
-        if state is not None and state.current is not None:
-            watch.record(state.current, state.states[state.current], ctx.now(), ctx.robot.distance_travelled)
+        i = state.current if state is not None else None
+        # A missed waypoint's second chance at the end of the loop failing again is expected
+        # (it was blocked the first time): only first attempts count towards being stuck.
+        if i is not None and not (i in state.retried and state.states[i] == MISSED):
+            watch.record(i, state.states[i], ctx.now(), ctx.robot.distance_travelled)
         why = watch.trigger(ctx.now(), self.params.max_missed, self.params.no_progress_time)
         if why is None:
             self.feedback_message = f"getting somewhere ({watch.missed_in_row} missed in a row)"

@@ -93,9 +93,10 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     if any(_inside(grid, now, xy) for xy in wanted):
         return Diagnosis(CUT_OFF, f"the waypoints that failed lie behind objects the map does not have{where}; "
                                   "the robot can reach the others", agreement, area, blockers)
+    floor = float(np.count_nonzero(on_map_only)) * grid.resolution ** 2
     return Diagnosis(BOXED_IN, f"boxed in by objects the map does not have{where}: none of the "
                                f"{len(wanted) or len(remaining)} waypoint(s) left is reachable, "
-                               f"{area:.1f} m² of floor within reach", agreement, area, blockers)
+                               f"{area:.1f} of {floor:.1f} m² of floor within reach", agreement, area, blockers)
 
 
 def _hits(pose: Pose2D, scan: LaserScan | None, max_range: float) -> np.ndarray:

@@ -48,6 +48,18 @@ def test_check_progress_fails_and_says_why_after_three_missed_in_a_row(ctx):
     assert tick(check) == Status.FAILURE and key("stuck") == "3 waypoints missed in a row"
 
 
+def test_a_missed_waypoint_missed_again_on_its_retry_does_not_count(ctx):
+    state = start_pass(ctx, 3)
+    check = CheckProgress("Making Progress", CheckProgressParams(max_missed=3, no_progress_time=600.0), ctx)
+    for _ in range(3):
+        finish(state, MISSED if state.index < 2 else VISITED)
+        assert tick(check) == Status.SUCCESS
+    for _ in range(2):  # the two missed ones come back once, and fail again
+        finish(state, MISSED)
+        assert tick(check) == Status.SUCCESS
+    assert ctx.watch.missed_in_row == 0
+
+
 def test_check_progress_reads_its_thresholds_from_the_configuration(ctx):
     ctx.config.recovery.max_missed = 1
     start_pass(ctx)
