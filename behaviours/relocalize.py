@@ -22,6 +22,11 @@ from bomc_bt.tree.registry import register
 class RelocalizeParams:
     global_search: bool = False  # [bool] search the whole map instead of around the dock pose
     timeout: float = 60.0  # [s] robot time for an answer
+    hint: str = "dock"  # [choice] dock: search around the dock pose; pose: around the current estimate
+
+    def __post_init__(self) -> None:
+        if self.hint not in ("dock", "pose"):
+            raise ValueError(f"hint must be dock or pose, not {self.hint!r}")
 
 
 @register("Relocalize")
@@ -38,6 +43,8 @@ class Relocalize(ActionLeaf):
         if self.context.restored and self.context.robot.pose() is not None:
             return None  # a resumed pass: the robot is where the killed run left it, localized
         hint = None if self.params.global_search else self.context.dock
+        if hint is not None and self.params.hint == "pose":  # a pass that lost its way relocalizes where it is
+            hint = self.context.robot.pose() or self.context.dock
         return self.context.robot.relocalize(hint, global_search=self.params.global_search)
 
     def timeout(self) -> float:

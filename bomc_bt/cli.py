@@ -85,6 +85,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--churn", type=float, default=None,
                    help="share of movable objects changed before each session (default 0.05)")
     o.add_argument("--static", action="store_true", help="nothing ever changes (all sessions identical)")
+    o.add_argument("--corridor-chairs", type=int, default=0, metavar="N",
+                   help="sessions N, 2N, ... leave a chair in the middle of a corridor (default 0: never)")
     o.add_argument("--resolution", type=float, default=0.05, help="map metres per cell")
     o.add_argument("--force", action="store_true", help="replace existing files")
 
@@ -263,7 +265,8 @@ def _report_monitor(result, session: int) -> int:
     s = result.summary
     print(f"session {session} {s['outcome']}: {s['nodes']} nodes, events {s['events']}, "
           f"coverage {s['coverage']['fraction']:.0%}, waypoints missed {s['traversal'].get('missed', 0)}, "
-          f"detoured {s['traversal'].get('detoured', 0)}, {s['sim_time_s']} s robot time")
+          f"detoured {s['traversal'].get('detoured', 0)}, {s['sim_time_s']} s robot time"
+          + (f"; {s['reason']}" if s.get("outcome") == "ended_early" and s.get("reason") else ""))
     return 0 if result.succeeded else 1
 
 

@@ -16,6 +16,7 @@ from typing import Any, Literal
 from bomc_bt.algorithm_params import (
     ExplorationParams,
     ProjectionParams,
+    RecoveryParams,
     RelocalizationParams,
     TraversalParams,
 )
@@ -63,6 +64,7 @@ class Config:
     exploration: ExplorationParams = field(default_factory=ExplorationParams)
     relocalization: RelocalizationParams = field(default_factory=RelocalizationParams)
     traversal: TraversalParams = field(default_factory=TraversalParams)
+    recovery: RecoveryParams = field(default_factory=RecoveryParams)
     camera: CameraParams = field(default_factory=CameraParams)
     detector: SimDetectorParams = field(default_factory=SimDetectorParams)
     projection: ProjectionParams = field(default_factory=ProjectionParams)

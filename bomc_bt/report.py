@@ -36,6 +36,7 @@ def session_summary(ctx) -> dict[str, Any]:
         },
         "traversal": ctx.traverse.summary() if ctx.traverse else {},
         "localized": read_key(LOCALIZED_KEY, "no"),
+        "recoveries": ctx.watch.summary() if getattr(ctx, "watch", None) else [],
     }
 
 
@@ -89,6 +90,9 @@ def report_markdown(s: dict[str, Any]) -> str:
         lines.append(f"- replayed from {r['bag']} ({r['rate']}): frames processed {r['processed']}, "
                      f"dropped {r['dropped']}, skipped {r['skipped']} (of {r['frames_in_bag']} in the bag); "
                      f"not-model cost {r['not_model_ms_per_frame']} ms per frame")
+    for r in s.get("recoveries", []):
+        lines.append(f"- at {r['stamp']} s: {r['trigger']}; {r['cause']}: {r['detail']}; "
+                     f"did: {r['action'] or 'nothing'}{'; ' + r['result'] if r['result'] else ''}")
     if s.get("reason"):
         lines.append(f"- reason: {s['reason']}")
     return "\n".join(lines) + "\n"

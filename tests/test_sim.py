@@ -347,3 +347,22 @@ def test_frames_come_at_the_camera_rate_only_when_localized():
     first = cam.calls[0]
     assert first["reported"] != first["true"] and first["reported"].distance_to(first["true"]) < 0.2
     assert SimRobot(world, 1, seed=0).frame() is None  # no camera, no frames
+
+
+def test_clear_costmaps_empties_the_obstacle_layer_and_the_lidar_refills_it():
+    """The robot port's clear_costmaps (a pass that keeps failing waypoints, bomc_bt.stuck):
+    the obstacle layer forgets what earlier scans marked and the next scans mark again
+    what is still there."""
+    world = ring_world([Obstacle((3.0, 0.95), (0.6, 1.8), 1.0)])
+    robot = SimRobot(world, 2, seed=0, mode="monitor")
+    localize(robot, world.grid, world.start)
+    for _ in range(10):
+        robot.step()
+    layer = robot.planners.obstacles
+    marked = int(layer.mask.sum())
+    assert marked > 0
+    robot.clear_costmaps()
+    assert not layer.mask.any()
+    robot.step()
+    robot.step()
+    assert layer.mask.sum() >= 0.5 * marked  # the obstacle is still there: the lidar marks it again

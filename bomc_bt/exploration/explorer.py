@@ -31,10 +31,11 @@ from bomc_bt.exploration.dwfe import Choice, ExplorationParams, choose_frontier
 from bomc_bt.exploration.frontiers import Frontier, find_frontiers, touches_unknown
 from bomc_bt.exploration.gain import Standoffs, visible_unknown
 from bomc_bt.exploration.gain_choice import Candidate, choose_by_gain
-from bomc_bt.exploration.progress import AreaWatch, Trail
+from bomc_bt.exploration.progress import AreaWatch
 from bomc_bt.exploration.reachability import Reachability
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.planner import PlannerParams
+from bomc_bt.trail import Trail
 
 EXPLORING = "exploring"
 DONE = "done"

@@ -281,6 +281,12 @@ class SimRobot:
             return handle
         return self.navigator.start(goal, self._estimate, self.now(), self.planners.live, self.planners.static)
 
+    def clear_costmaps(self) -> None:
+        """Empty the obstacle layer (monitor); the next scan starts refilling it at once."""
+        if self._obstacles is not None:
+            self._obstacles.clear()
+            self._next_obstacle_update = self.now()
+
     def cancel_all(self) -> None:
         self.navigator.cancel()
         if self._reloc is not None:
