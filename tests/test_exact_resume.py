@@ -90,7 +90,7 @@ def test_a_pass_killed_in_process_resumes_where_it_was_with_the_same_f1(office, 
     with pytest.raises(Killed):
         run.run_monitor(office["world"], site, 2, seed=2, config=office["config"], hooks=[kill_at(at)])
     committed = saved_robot_time(site, 2)
-    assert 0 < committed <= at
+    assert 0 < committed <= at + 0.1 + 1e-9  # the hook kills after the tick that reached ``at``
     ticks: list = []
     result = run.run_monitor(office["world"], site, 2, seed=2, config=office["config"], resume=True,
                              hooks=[world_checker(office["world"], ticks)])

@@ -55,12 +55,13 @@ class NodeExtents:
         return self.boxes and fp is not None and _side(fp) > self.params.distance(v.category) + BIG_MARGIN
 
     def separate(self, v: Node, o: Observation) -> bool:
-        """Whether ``o`` is plainly not ``v``'s object: ``v`` is small and the floor the view
-        covers lies clear of the floor ``v``'s object covered (farther than the noise pad).
+        """Whether ``o`` is plainly not ``v``'s object: ``v`` is small, ``o`` a whole view, and
+        the floor the view covers lies clear of the floor ``v``'s object covered (farther
+        than the noise pad).
         A view of a part of an object lies on its footprint; one beside it is a neighbour."""
         fp = v.footprint
-        if not self.boxes or fp is None or o.box is None or self.is_big(v):
-            return False
+        if not self.boxes or fp is None or o.box is None or o.truncated or self.is_big(v):
+            return False  # a view cut off by an occluder or the image edge shows a part: any part
         return box_gap(fp, o.box) > NOISE_PAD
 
     def grow(self, graph: ObjectGraph, v: Node, o: Observation, gate: float, restart: bool = False,
