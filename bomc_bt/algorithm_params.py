@@ -191,13 +191,19 @@ class RecoveryParams:
     """When a monitor pass that keeps failing waypoints looks for why, and what it tries
     (:mod:`bomc_bt.stuck`, ``trees/recover.yaml``)."""
 
-    max_missed: int = 3  # [count] waypoints missed in a row that start a recovery round; 0: never
-    no_progress_time: float = 600.0  # [s] robot time without reaching a waypoint that starts one; 0: never
+    # [count] waypoints missed in a row that start a recovery round; 0 (default): never. Opt in
+    # (3 is a good value): on lab-b it still ends passes whose last waypoints are merely unreachable
+    max_missed: int = 0
+    no_progress_time: float = 0.0  # [s] robot time without reaching a waypoint that starts one; 0 (default): never
     max_rounds: int = 2  # [count] recovery rounds with no waypoint reached in between before the pass ends early
     obstacle_range: float = 4.0  # [m] scan returns nearer than this count as obstacles in the diagnosis
     on_map_distance: float = 0.2  # [m] a scan return this near a wall of the saved map lies on the map
-    min_agreement: float = 0.4  # [-] share of scan returns on the map below which the pose is lost
-    wedged_distance: float = 0.5  # [m] driven while waypoints failed, below which the robot is wedged
+    # [-] share of scan returns on the map below which the pose is lost; 0 (default) turns the
+    # check off: on lab-b it read 0 % at the true pose, so a lost pose is left to Relocalize
+    min_agreement: float = 0.0
+    # [m] driven while waypoints failed, below which the robot is wedged; 0 (default): off, since
+    # waypoints that fail at once (no plan) also leave the robot where it was
+    wedged_distance: float = 0.0
     backout_distance: float = 1.5  # [m] how far back along the path driven a back-out goes
     rebuild_time: float = 2.0  # [s] robot time to let the lidar refill a cleared obstacle layer
 
@@ -207,7 +213,9 @@ class RecoveryParams:
             if isinstance(value, bool) or int(value) != value or value < (1 if name == "max_rounds" else 0):
                 raise ValueError(f"{name}: must be a whole number >= {1 if name == 'max_rounds' else 0}, "
                                  f"got {value!r}")
-        _positive(self, "obstacle_range", "on_map_distance", "backout_distance", "wedged_distance")
+        _positive(self, "obstacle_range", "on_map_distance", "backout_distance")
+        if not self.wedged_distance >= 0.0:
+            raise ValueError(f"wedged_distance: must be >= 0, got {self.wedged_distance!r}")
         _non_negative(self, "no_progress_time", "rebuild_time")
         if not 0.0 <= self.min_agreement <= 1.0:
             raise ValueError(f"min_agreement: must be 0 to 1, got {self.min_agreement!r}")

@@ -183,7 +183,7 @@ def test_chairs_side_by_side_at_a_table_stay_two_nodes():
     half, the rest hidden), and such a view's centre lies within delta_c (0.7 m) of the
     other chair. The view's floor lies clear of the other chair's footprint: two chairs
     stay two, in place, and neither footprint grows over the other."""
-    g = ObjectGraph(AssociationParams(confirm_detections=1))
+    g = ObjectGraph(AssociationParams(confirm_detections=1, separate_neighbours=True))
     g.associate([boxed("chair", -0.65, -0.25, -0.15, 0.25)], [], 1, 0.0)  # chair A, whole, at -0.4
     for k in range(6):
         g.associate([boxed("chair", 0.1, -0.25, 0.4, 0.25)], [], 1, 1.0 + 2 * k)  # B's inner half

@@ -58,7 +58,7 @@ def cast(world: OccupancyGrid, pose: Pose2D, beams: int = 360, max_range: float 
 
 ROBOT = Pose2D(3.5, 1.5, 0.0)  # left room, 1.5 m from the doorway
 BEYOND = [(8.0, 1.5)]  # the waypoints that failed, in the right room
-PARAMS = RecoveryParams()
+PARAMS = RecoveryParams(min_agreement=0.4, wedged_distance=0.5)  # both checks on (off by default)
 
 
 def test_an_object_dropped_in_the_only_doorway_boxes_the_robot_in():

@@ -60,7 +60,7 @@ class NodeExtents:
         than the noise pad).
         A view of a part of an object lies on its footprint; one beside it is a neighbour."""
         fp = v.footprint
-        if not self.boxes or fp is None or o.box is None or o.truncated or self.is_big(v):
+        if not self.boxes or fp is None or o.box is None or not self.params.separate_neighbours or self.is_big(v):
             return False  # a view cut off by an occluder or the image edge shows a part: any part
         return box_gap(fp, o.box) > NOISE_PAD
 
