@@ -33,8 +33,9 @@ class NodeExtents:
     longest single view of that object showed (plus the noise pad): two chairs 0.8 m apart
     at a table, each seen alone with its mask bleeding towards the other, once made one
     "chair" footprint 1.5 m long that then counted as big and swallowed every chair around
-    the table (Environment A: 31 of 82 chair nodes, chair recall 0.65). And a small object's
-    view whose box lies clear of the node's footprint is another object, however near.
+    the table (Environment A: 31 of 82 chair nodes, chair recall 0.65). Opt-in
+    (``separate_neighbours``): a small object's view whose box lies clear of the node's
+    footprint is another object, however near.
     """
 
     def __init__(self, params: AssociationParams):
@@ -55,13 +56,14 @@ class NodeExtents:
         return self.boxes and fp is not None and _side(fp) > self.params.distance(v.category) + BIG_MARGIN
 
     def separate(self, v: Node, o: Observation) -> bool:
-        """Whether ``o`` is plainly not ``v``'s object: ``v`` is small, ``o`` a whole view, and
-        the floor the view covers lies clear of the floor ``v``'s object covered (farther
-        than the noise pad).
-        A view of a part of an object lies on its footprint; one beside it is a neighbour."""
+        """With ``separate_neighbours`` (opt-in): whether ``o`` is plainly not ``v``'s object:
+        ``v`` is small and the floor the view covers lies clear of the floor ``v``'s object
+        covered (farther than the noise pad). A view of a part of an object lies on its
+        footprint; one beside it is a neighbour -- except that two partial views of one
+        object's two ends can lie apart too (lab-b's cabinet was doubled), hence opt-in."""
         fp = v.footprint
         if not self.boxes or fp is None or o.box is None or not self.params.separate_neighbours or self.is_big(v):
-            return False  # a view cut off by an occluder or the image edge shows a part: any part
+            return False
         return box_gap(fp, o.box) > NOISE_PAD
 
     def grow(self, graph: ObjectGraph, v: Node, o: Observation, gate: float, restart: bool = False,
