@@ -12,6 +12,7 @@ from behaviours import (  # noqa: F401
     navigate,
     perceive,
     plan_pass,
+    recover,
     relocalize,
     save_map,
     session,

@@ -108,7 +108,7 @@ class ExplorationOver(Leaf):
 class DriveToFrontierParams:
     recheck_period: float = 2.0  # [s] robot time between checks that the frontier is still open
     open_radius: float = 0.6  # [m] around the goal searched for unknown cells
-    min_unknown: int = 6  # [count] fewer unknown cells than this: the frontier is mapped, move on
+    min_unknown: int = 3  # [count] fewer frontier cells (free next to unknown) near it: mapped, move on
 
 
 @register("DriveToFrontier")
@@ -122,15 +122,20 @@ class DriveToFrontier(ActionLeaf):
     def send(self) -> Handle:
         self.goal = self.get("goal")
         pose = self.context.robot.pose()
-        # Arrive facing the frontier: the lidar's blind sector is behind the robot.
-        yaw = math.atan2(self.goal.xy[1] - pose.y, self.goal.xy[0] - pose.x) if pose is not None else 0.0
+        # Arrive facing the frontier: the lidar's blind sector is behind the robot. A standoff
+        # goal faces the frontier cell it looks at; a goal on the frontier, the way there.
+        (ax, ay), (gx, gy) = self.goal.looks_at, self.goal.xy
+        if math.hypot(ax - gx, ay - gy) > 0.1:
+            yaw = math.atan2(ay - gy, ax - gx)
+        else:
+            yaw = math.atan2(gy - pose.y, gx - pose.x) if pose is not None else 0.0
         handle = self.context.robot.navigate(Pose2D(*self.goal.xy, yaw))
         self.next_check = self.context.now() + self.params.recheck_period
         return handle
 
     def still_open(self, grid) -> bool:
         p = self.params
-        return still_open(grid, self.goal.xy, p.open_radius, p.min_unknown)
+        return still_open(grid, self.goal.looks_at, p.open_radius, p.min_unknown)
 
     def before_poll(self) -> Status | None:
         ctx, explorer = self.context, self.context.explorer

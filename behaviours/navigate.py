@@ -76,5 +76,6 @@ class NavigateTo(ActionLeaf):
     def on_running(self) -> Status:
         pose = self.context.robot.pose()
         if pose is not None:
+            self.context.trail.add(pose.xy)
             self.feedback_message = f"to ({self.goal.x:.1f}, {self.goal.y:.1f}), {pose.distance_to(self.goal):.1f} m"
         return Status.RUNNING

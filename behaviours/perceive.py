@@ -18,6 +18,7 @@ class PerceiveAssociate(Leaf):
 
     def update(self) -> Status:
         ctx = self.context
+        ctx.progress.path_length = ctx.robot.distance_travelled  # the pass's driving, for the progress line
         frame = ctx.robot.frame()
         if frame is None:
             return Status.RUNNING

@@ -76,7 +76,7 @@ class PlanPhase(Leaf):
 
     def extend(self, views: list) -> None:
         ctx = self.context
-        extend_pass(ctx.store, ctx.session, ctx.traverse, self.phase, views)
+        extend_pass(ctx.store, ctx.session, ctx.traverse, self.phase, views, ctx.perception)
         ctx.progress.waypoints = len(ctx.traverse.states)
 
 

@@ -36,14 +36,18 @@ class EndSessionParams:
 
 @register("EndSession")
 class EndSession(Leaf):
-    """Closes the session with its outcome and writes the session report."""
+    """Closes the session with its outcome and writes the session report.
+
+    An outcome a leaf already decided (``ended_early``: the pass gave up on being stuck,
+    :mod:`behaviours.recover`) is kept; ``params.outcome`` is the outcome otherwise.
+    """
 
     Params = EndSessionParams
 
     def update(self) -> Status:
         ctx = self.context
-        ctx.outcome = self.params.outcome
+        ctx.outcome = ctx.outcome or self.params.outcome  # a leaf that ended the pass early said why
         summary = write_session_report(ctx)
-        self.feedback_message = (f"session {ctx.session} {self.params.outcome}: {summary['nodes']} nodes, "
+        self.feedback_message = (f"session {ctx.session} {ctx.outcome}: {summary['nodes']} nodes, "
                                  f"coverage {summary['coverage']['fraction']:.0%}")
         return Status.SUCCESS

@@ -105,7 +105,7 @@ class MarkWaypoint(Leaf):
         if state == VISITED and self.get("nav_detour", False):
             state = DETOURED
         ctx.traverse.mark(i, state)
-        save_pass(ctx.store, ctx.session, ctx.traverse)
+        save_pass(ctx.store, ctx.session, ctx.traverse, ctx.perception)
         ctx.progress.waypoint = ctx.traverse.done_count
         self.feedback_message = f"waypoint {i + 1} {state}"
         return Status.SUCCESS

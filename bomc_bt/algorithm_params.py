@@ -101,9 +101,11 @@ class RelocalizationParams:
 
 @dataclass
 class ExplorationParams:
-    """Tunables of the exploration step (DWFE or the explore_lite baseline)."""
+    """Tunables of the exploration step (the gain explorer, DWFE or the explore_lite baseline)."""
 
-    explorer: Literal["dwfe", "baseline"] = "dwfe"  # [choice] the paper's DWFE or the explore_lite baseline
+    # [choice] gain: most new map per metre of path (docs/exploration.md); dwfe: the paper's
+    # Algorithm 1; baseline: explore_lite's ranking
+    explorer: Literal["gain", "dwfe", "baseline"] = "gain"
     # [m] r_l, the local window: a few metres is one room or one corridor segment for a
     # Fetch-class base: about what its laser clears well from one stop (indoor returns are
     # dense up to ~5 m), and small enough that the window does not reach into the next room.
@@ -140,17 +142,30 @@ class ExplorationParams:
     backout_distance: float = 1.5  # [m] back along the trajectory driven, towards where it came from
     max_backouts: int = 2  # [count] back-outs without progress before "stuck" may be declared
     # [bool] frontiers count only where the planner can take the robot (its clearance, unknown
-    # treated as a wall); the others are reported as unreachable border, never chosen
+    # treated as a wall); the others are reported as unreachable border, never chosen. The
+    # gain explorer always counts this way: it ranks by path length on the planner's grid.
     planner_reachable: bool = True
+    # Goals are sent to a standoff: a reachable cell at least the robot's clearance from every
+    # occupied and unknown cell, so a wall the lidar then reveals cannot put the goal inside
+    # the planner's lethal zone (the cause of every failed goal measured on generated offices).
+    max_standoff: float = 1.0  # [m] how far from its frontier cell a standoff goal may be
+    # The gain explorer (explorer: gain) ranks frontiers by gain / (path + travel_offset).
+    gain_radius: float = 6.0  # [m] how far the lidar's view is counted as information gain
+    # [m2] frontiers whose view would add less are no goals; none left: done. On generated
+    # offices a view estimated below 3 m2 added 0.6-1 m2 of map for 20-27 s of driving.
+    min_gain: float = 3.0
+    travel_offset: float = 2.0  # [m] fixed cost of any goal (stop, turn, decide), added to its path
+    hysteresis: float = 0.25  # [-] utility bonus of the frontier the last goal served
+    hysteresis_radius: float = 1.5  # [m] a frontier cell this near the last goal's is the same frontier
 
     def __post_init__(self) -> None:
-        if self.explorer not in ("dwfe", "baseline"):
-            raise ValueError(f"explorer: must be 'dwfe' or 'baseline', got {self.explorer!r}")
+        if self.explorer not in ("gain", "dwfe", "baseline"):
+            raise ValueError(f"explorer: must be 'gain', 'dwfe' or 'baseline', got {self.explorer!r}")
         _positive(self, "local_radius", "global_radius", "progress_timeout", "no_progress_time",
-                  "blacklist_readmit_radius", "blacklist_near_radius")
+                  "blacklist_readmit_radius", "blacklist_near_radius", "gain_radius", "max_standoff")
         _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale", "min_frontier_size",
                       "blacklist_radius", "max_time", "min_progress_area", "blacklist_readmit_area",
-                      "backout_distance")
+                      "backout_distance", "min_gain", "travel_offset", "hysteresis", "hysteresis_radius")
         if self.global_radius < self.local_radius:
             raise ValueError("global_radius: must be at least local_radius "
                              f"({self.global_radius} < {self.local_radius})")
@@ -169,6 +184,41 @@ class ExplorationParams:
         """``min_frontier_size`` as a cell count for :func:`find_frontiers` (explore_lite keeps
         frontiers with ``size * resolution >= min_frontier_size``)."""
         return max(1, math.ceil(self.min_frontier_size / resolution - 1e-9))
+
+
+@dataclass
+class RecoveryParams:
+    """When a monitor pass that keeps failing waypoints looks for why, and what it tries
+    (:mod:`bomc_bt.stuck`, ``trees/recover.yaml``)."""
+
+    # [count] waypoints missed in a row that start a recovery round; 0 (default): never. Opt in
+    # (3 is a good value): on lab-b it still ends passes whose last waypoints are merely unreachable
+    max_missed: int = 0
+    no_progress_time: float = 0.0  # [s] robot time without reaching a waypoint that starts one; 0 (default): never
+    max_rounds: int = 2  # [count] recovery rounds with no waypoint reached in between before the pass ends early
+    obstacle_range: float = 4.0  # [m] scan returns nearer than this count as obstacles in the diagnosis
+    on_map_distance: float = 0.2  # [m] a scan return this near a wall of the saved map lies on the map
+    # [-] share of scan returns on the map below which the pose is lost; 0 (default) turns the
+    # check off: on lab-b it read 0 % at the true pose, so a lost pose is left to Relocalize
+    min_agreement: float = 0.0
+    # [m] driven while waypoints failed, below which the robot is wedged; 0 (default): off, since
+    # waypoints that fail at once (no plan) also leave the robot where it was
+    wedged_distance: float = 0.0
+    backout_distance: float = 1.5  # [m] how far back along the path driven a back-out goes
+    rebuild_time: float = 2.0  # [s] robot time to let the lidar refill a cleared obstacle layer
+
+    def __post_init__(self) -> None:
+        for name in ("max_missed", "max_rounds"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or int(value) != value or value < (1 if name == "max_rounds" else 0):
+                raise ValueError(f"{name}: must be a whole number >= {1 if name == 'max_rounds' else 0}, "
+                                 f"got {value!r}")
+        _positive(self, "obstacle_range", "on_map_distance", "backout_distance")
+        if not self.wedged_distance >= 0.0:
+            raise ValueError(f"wedged_distance: must be >= 0, got {self.wedged_distance!r}")
+        _non_negative(self, "no_progress_time", "rebuild_time")
+        if not 0.0 <= self.min_agreement <= 1.0:
+            raise ValueError(f"min_agreement: must be 0 to 1, got {self.min_agreement!r}")
 
 
 def _positive(params: ExplorationParams, *names: str) -> None:

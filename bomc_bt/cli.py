@@ -15,6 +15,7 @@ import json
 import sys
 from pathlib import Path
 
+from bomc_bt import cli_args as arg
 from bomc_bt.errors import BomcError, MissionFailed
 
 
@@ -39,38 +40,38 @@ def parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("build", help="explore once and save the map")
     common(b, world_required=False)
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--seed", type=arg.seed, default=0)
     b.add_argument("--max-time", type=float, default=None, help="simulated seconds (default: until done)")
-    b.add_argument("--explorer", choices=["dwfe", "baseline"], default=None)
+    b.add_argument("--explorer", choices=["gain", "dwfe", "baseline"], default=None)
     b.add_argument("--tree", default=None, help="tree file (default trees/build.yaml)")
     b.add_argument("--new-map", action="store_true",
                    help="re-build a site that has an object graph: archive the graph with its map (README: Sites)")
     b.add_argument("--viewer", action="store_true", help="serve the live viewer on 127.0.0.1")
-    b.add_argument("--viewer-port", type=int, default=8765)
+    b.add_argument("--viewer-port", type=arg.port, default=8765)
     b.add_argument("--quiet", action="store_true", help="no live tree view")
     b.add_argument("--ros", action="store_true", help="run against a ROS 1 robot instead of the simulator")
 
     m = sub.add_parser("monitor", help="one monitoring pass that updates the object graph")
     common(m, world_required=False)
-    m.add_argument("--session", type=int, required=True)
-    m.add_argument("--seed", type=int, default=0)
+    m.add_argument("--session", type=arg.session, required=True)
+    m.add_argument("--seed", type=arg.seed, default=0)
     m.add_argument("--tree", default=None, help="tree file (default trees/monitor.yaml)")
     m.add_argument("--resume", action="store_true", help="continue a pass that was killed")
     m.add_argument("--viewer", action="store_true")
-    m.add_argument("--viewer-port", type=int, default=8765)
+    m.add_argument("--viewer-port", type=arg.port, default=8765)
     m.add_argument("--quiet", action="store_true")
     m.add_argument("--ros", action="store_true", help="run against a ROS 1 robot instead of the simulator")
 
     e = sub.add_parser("evaluate", help="score the graph after a session against the world's ground truth")
     common(e)
-    e.add_argument("--session", type=int, required=True)
+    e.add_argument("--session", type=arg.session, required=True)
     e.add_argument("--json", action="store_true")
 
     d = sub.add_parser("demo", help="build once, then monitor sessions 1..3 and print the paper's tables")
     d.add_argument("--world", default=None, help="world file (default: lab-b from the shared worlds)")
     d.add_argument("--site", default="sites/demo")
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--sessions", type=int, default=3)
+    d.add_argument("--seed", type=arg.seed, default=0)
+    d.add_argument("--sessions", type=arg.session_count, default=3)
     d.add_argument("--config", action="append", default=[], metavar="FILE")
     d.add_argument("--quiet", action="store_true")
 
@@ -79,17 +80,19 @@ def parser() -> argparse.ArgumentParser:
     o = kinds.add_parser("office", help="an office floor of any size with sessions of changes")
     o.add_argument("--out", required=True, help="world file to write (NAME.yaml; the map goes beside it)")
     o.add_argument("--size", default="93x90", help="floor size WxH in metres (default 93x90, Environment A)")
-    o.add_argument("--seed", type=int, default=0)
+    o.add_argument("--seed", type=arg.seed, default=0)
     o.add_argument("--sessions", type=int, default=3)
     o.add_argument("--churn", type=float, default=None,
                    help="share of movable objects changed before each session (default 0.05)")
     o.add_argument("--static", action="store_true", help="nothing ever changes (all sessions identical)")
+    o.add_argument("--corridor-chairs", type=int, default=0, metavar="N",
+                   help="sessions N, 2N, ... leave a chair in the middle of a corridor (default 0: never)")
     o.add_argument("--resolution", type=float, default=0.05, help="map metres per cell")
     o.add_argument("--force", action="store_true", help="replace existing files")
 
     v = sub.add_parser("view", help="browse a finished site in the web viewer")
     v.add_argument("site", help="site directory")
-    v.add_argument("--port", type=int, default=8765)
+    v.add_argument("--port", type=arg.port, default=8765)
     v.add_argument("--no-browser", action="store_true", help="only print the address")
 
     c = sub.add_parser("config", help="print the effective configuration")
@@ -97,6 +100,16 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--defaults", action="store_true", help="the code's defaults (config/defaults.yaml)")
     c.add_argument("--trees", action="store_true", help="the leaf parameters written in the shipped trees")
 
+    from bomc_bt import cli_site
+
+    cli_site.add_parsers(sub, _Parser)  # objects, changes, export, publish, edit
+    from bomc_bt.cli_replay import add_parser as add_replay
+
+    add_replay(sub)
+
+    from bomc_bt.cli_fleet import add_fleet_commands
+
+    add_fleet_commands(sub)  # sync, pull: the central store
     # Parsed by the bridge itself (main() hands it the rest of the line); listed for --help.
     sub.add_parser("sim-ros", add_help=False,
                    help="serve the simulator over ROS 1 for --ros (bomc sim-ros --help for its options)")
@@ -127,6 +140,11 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt:
         print("bomc: interrupted", file=sys.stderr)
+        return 1
+    except OSError as exc:  # out of disk, permission taken away mid-run: what was saved stays saved
+        where = f" ({exc.filename})" if exc.filename else ""
+        print(f"bomc: failed: {exc.strerror or _one_line(exc)}{where}; the site keeps what was saved before",
+              file=sys.stderr)
         return 1
 
 
@@ -160,6 +178,18 @@ def _dispatch(args) -> int:
         return _mission(args)
     if args.command == "view":
         return _view(args)
+    if args.command in ("objects", "changes", "export", "publish", "edit"):
+        from bomc_bt import cli_site
+
+        return cli_site.run(args)
+    if args.command == "replay":
+        from bomc_bt.cli_replay import replay
+
+        return replay(args)
+    if args.command in ("sync", "pull"):
+        from bomc_bt.cli_fleet import run_fleet_command
+
+        return run_fleet_command(args)
     if args.command == "world":
         from bomc_bt.officegen.cli import generate_from_args
 
@@ -235,7 +265,8 @@ def _report_monitor(result, session: int) -> int:
     s = result.summary
     print(f"session {session} {s['outcome']}: {s['nodes']} nodes, events {s['events']}, "
           f"coverage {s['coverage']['fraction']:.0%}, waypoints missed {s['traversal'].get('missed', 0)}, "
-          f"detoured {s['traversal'].get('detoured', 0)}, {s['sim_time_s']} s robot time")
+          f"detoured {s['traversal'].get('detoured', 0)}, {s['sim_time_s']} s robot time"
+          + (f"; {s['reason']}" if s.get("outcome") == "ended_early" and s.get("reason") else ""))
     return 0 if result.succeeded else 1
 
 

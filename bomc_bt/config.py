@@ -16,9 +16,11 @@ from typing import Any, Literal
 from bomc_bt.algorithm_params import (
     ExplorationParams,
     ProjectionParams,
+    RecoveryParams,
     RelocalizationParams,
     TraversalParams,
 )
+from bomc_bt.central.params import CentralParams
 from bomc_bt.config_docs import documented_yaml, plain
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import AssociationParams
@@ -62,12 +64,14 @@ class Config:
     exploration: ExplorationParams = field(default_factory=ExplorationParams)
     relocalization: RelocalizationParams = field(default_factory=RelocalizationParams)
     traversal: TraversalParams = field(default_factory=TraversalParams)
+    recovery: RecoveryParams = field(default_factory=RecoveryParams)
     camera: CameraParams = field(default_factory=CameraParams)
     detector: SimDetectorParams = field(default_factory=SimDetectorParams)
     projection: ProjectionParams = field(default_factory=ProjectionParams)
     association: AssociationParams = field(default_factory=AssociationParams)
     perception: PerceptionParams = field(default_factory=PerceptionParams)
     ros: RosParams = field(default_factory=RosParams)
+    central: CentralParams = field(default_factory=CentralParams)
     source: list[str] = field(default_factory=list, init=False)  # the files merged, in order
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from bomc_bt.grid import OccupancyGrid
+
 
 def clearance_fields(obstacles: np.ndarray, unknown: np.ndarray, res: float,
                      factor: int) -> tuple[np.ndarray, np.ndarray]:
@@ -37,3 +39,22 @@ def clearance_fields(obstacles: np.ndarray, unknown: np.ndarray, res: float,
             dist = np.full((size[1], size[0]), np.inf, dtype=np.float32)
         unk = cv2.resize(unk, size, interpolation=cv2.INTER_AREA)
     return dist.astype(np.float64), unk > 0.5
+
+
+def grid_clearance(grid: OccupancyGrid, factor: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`clearance_fields` of a grid's own obstacles, computed once per grid content.
+
+    While exploring, the frontier reachability check and the navigator's planner are both
+    built on the same snapshot of the live map, one right after the other; the distance
+    transform is the expensive part of each. The result is kept on the grid with a copy
+    of its cells, so a grid whose cells were edited in place is recomputed. The arrays
+    returned are shared: read them, do not write them.
+    """
+    cached = grid._cache.get("clearance")
+    if cached is not None and cached[0] == factor and np.array_equal(cached[1], grid.data):
+        return cached[2], cached[3]
+    clearance, unknown = clearance_fields(grid.occupied_mask(), grid.unknown_mask(), grid.resolution, factor)
+    clearance.flags.writeable = False
+    unknown.flags.writeable = False
+    grid._cache["clearance"] = (factor, grid.data.copy(), clearance, unknown)
+    return clearance, unknown

@@ -28,22 +28,18 @@ from bomc_bt.config import Config
 from bomc_bt.errors import BomcError
 from bomc_bt.evaluation import ClassScores
 from bomc_bt.graph import ObjectGraph
-from bomc_bt.site import Site
-from bomc_bt.store import SiteStore
+from bomc_bt.site_reader import open_graph
 from bomc_bt.world import World, load_world
 
 
 def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: int, config: Config) -> ChangeResult:
     """Score the net changes pass ``session`` made against the true ones since the previous pass."""
     world = world if isinstance(world, World) else load_world(world)
-    site = Site(Path(site_dir))
-    if not site.store_path.exists():
-        raise BomcError("no object graph here: run `bomc monitor` first", site.store_path)
-    with SiteStore(site.store_path, readonly=True) as store:
+    with open_graph(site_dir) as store:  # a site directory or a postgresql:// floor
         recorded = {s.number: s for s in store.sessions()}
         if session not in recorded:
             known = ", ".join(map(str, sorted(recorded))) or "none"
-            raise BomcError(f"session {session} was not recorded (recorded: {known})", site.store_path, "--session")
+            raise BomcError(f"session {session} was not recorded (recorded: {known})", store.path, "--session")
         previous = max((n for n in recorded if n < session), default=None)
         history = store.events(until=session)
     threshold = ObjectGraph(config.association).threshold

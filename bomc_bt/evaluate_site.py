@@ -16,32 +16,42 @@ from bomc_bt.config import Config
 from bomc_bt.errors import BomcError
 from bomc_bt.evaluation import EvaluationResult, evaluate
 from bomc_bt.graph import ObjectGraph
-from bomc_bt.site import Site
-from bomc_bt.store import SiteStore
+from bomc_bt.miss_causes import Miss, miss_causes
+from bomc_bt.site_reader import open_graph
 from bomc_bt.world import World, load_world
 
 
 def evaluate_session(world: str | Path | World, site_dir: str | Path, session: int, config: Config) -> EvaluationResult:
+    return _scored(world, site_dir, session, config)[0]
+
+
+def session_misses(world: str | Path | World, site_dir: str | Path, session: int, config: Config) -> list[Miss]:
+    """Session ``session``'s false negatives, each with its cause (:mod:`bomc_bt.miss_causes`)."""
+    result, nodes, truth, removed, threshold = _scored(world, site_dir, session, config)
+    return miss_causes(result, nodes, removed, truth, threshold)
+
+
+def _scored(world: str | Path | World, site_dir: str | Path, session: int, config: Config):
     world = world if isinstance(world, World) else load_world(world)
-    site = Site(Path(site_dir))
-    if not site.store_path.exists():
-        raise BomcError("no object graph here: run `bomc monitor` first", site.store_path)
-    store = SiteStore(site.store_path, readonly=True)
+    store = open_graph(site_dir)  # a site directory or a postgresql:// floor (bomc_bt.site_reader)
     try:
         recorded = {s.number: s for s in store.sessions()}
         if session not in recorded:
             known = ", ".join(map(str, sorted(recorded))) or "none"
-            raise BomcError(f"session {session} was not recorded (recorded: {known})", site.store_path, "--session")
+            raise BomcError(f"session {session} was not recorded (recorded: {known})", store.path, "--session")
         nodes = store.graph_after(session)
         ended_at = recorded[session].ended_stamp
+        present_ids = {n.id for n in nodes}
+        removed = [(e.category, e.position) for e in store.events(session=session)
+                   if e.kind == "removed" and e.node_id not in present_ids]
     finally:
         store.close()
     # The truth is what stood in the building when the pass ended: a change scheduled
     # after the robot finished has not happened yet for this session's map.
     present = world.ground_truth(session, at=ended_at)
     truth = [(o.category, np.asarray(o.position, dtype=float)) for o in present.values()]
-    thresholds = ObjectGraph(config.association).threshold
-    return evaluate(nodes, truth, thresholds, session)
+    threshold = ObjectGraph(config.association).threshold
+    return evaluate(nodes, truth, threshold, session), nodes, truth, removed, threshold
 
 
 def format_result(result: EvaluationResult) -> str:

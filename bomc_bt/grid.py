@@ -116,24 +116,26 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
     if not isinstance(meta, dict):
         raise BomcError("expected a mapping of map_server keys", yaml_path)
     image = _require(meta, "image", str, yaml_path)
-    resolution = float(_require(meta, "resolution", (int, float), yaml_path))
-    if not math.isfinite(resolution) or resolution <= 0:
-        raise BomcError("must be a positive number", yaml_path, "resolution")
+    resolution = _number(meta, "resolution", None, 1e-4, 100.0, yaml_path)
     origin = meta.get("origin", [0.0, 0.0, 0.0])
     if not (isinstance(origin, list) and len(origin) in (2, 3)
-            and all(isinstance(v, (int, float)) and math.isfinite(v) for v in origin)):
-        raise BomcError("must be [x, y, yaw]", yaml_path, "origin")
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and abs(v) <= 1e6 and math.isfinite(v)
+                    for v in origin)):
+        raise BomcError("must be [x, y, yaw], each a number of at most 1e6", yaml_path, "origin")
     if len(origin) == 3 and abs(origin[2]) > 1e-9:
         raise BomcError("a rotated map origin (yaw != 0) is not supported", yaml_path, "origin")
-    negate = int(meta.get("negate", 0))
-    occ_t = float(meta.get("occupied_thresh", 0.65))
-    free_t = float(meta.get("free_thresh", 0.196))
+    negate = meta.get("negate", 0)
+    if negate not in (0, 1) or isinstance(negate, float):
+        raise BomcError(f"must be 0 or 1, got {str(negate)[:40]}", yaml_path, "negate")
+    occ_t = _number(meta, "occupied_thresh", 0.65, 0.0, 1.0, yaml_path)
+    free_t = _number(meta, "free_thresh", 0.196, 0.0, 1.0, yaml_path)
     if not 0.0 <= free_t <= occ_t <= 1.0:
         raise BomcError("need 0 <= free_thresh <= occupied_thresh <= 1", yaml_path, "free_thresh")
     mode = str(meta.get("mode", "trinary"))
     if mode not in ("trinary", "scale", "raw"):
-        raise BomcError(f"unknown mode {mode!r} (trinary, scale, raw)", yaml_path, "mode")
+        raise BomcError(f"unknown mode {mode[:40]!r} (trinary, scale, raw)", yaml_path, "mode")
     image_path = (yaml_path.parent / image) if not os.path.isabs(image) else Path(image)
+    check_image_size(image_path, yaml_path)
     pixels = cv2.imread(str(image_path), cv2.IMREAD_UNCHANGED)
     if pixels is None:
         raise BomcError(f"cannot read map image {image_path}", yaml_path, "image")
@@ -184,6 +186,39 @@ def save_map(grid: OccupancyGrid, yaml_path: str | Path) -> None:
         "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n"
     )
     atomic_write(yaml_path, meta.encode("ascii"))
+
+
+MAX_MAP_CELLS = 10**8  # 500 x 500 m at 5 cm: far beyond a building, within memory
+
+
+def check_image_size(image_path: Path, yaml_path: Path) -> None:
+    """Refuse an image whose header announces more than :data:`MAX_MAP_CELLS` before it is
+    decoded (a 100000 x 100000 header would ask for 10 GB). PGM and PNG headers are read
+    here; other formats are left to OpenCV's own limit."""
+    try:
+        with open(image_path, "rb") as f:
+            head = f.read(64)
+    except OSError as exc:
+        raise BomcError(f"cannot read map image {image_path} ({exc.strerror})", yaml_path, "image") from None
+    size = None
+    if head[:8] == b"\x89PNG\r\n\x1a\n" and len(head) >= 24:
+        size = int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+    elif head[:2] in (b"P2", b"P5"):
+        fields = b" ".join(line.split(b"#")[0] for line in head.splitlines()).split()[1:3]
+        if len(fields) == 2 and all(f.isdigit() for f in fields):
+            size = int(fields[0]), int(fields[1])
+    if size is not None and size[0] * size[1] > MAX_MAP_CELLS:
+        raise BomcError(f"map image of {size[0]} x {size[1]} pixels is larger than {MAX_MAP_CELLS:.0e} cells",
+                        yaml_path, "image")
+
+
+def _number(meta: dict, key: str, default: float | None, low: float, high: float, path: Path) -> float:
+    """``meta[key]`` (or ``default``; None: required) as a float within [low, high]."""
+    value = _require(meta, key, (int, float), path) if default is None else meta.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+            abs(value) <= 1e9 and math.isfinite(value) and low <= value <= high):
+        raise BomcError(f"must be a number from {low:g} to {high:g}, got {str(value)[:40]}", path, key)
+    return float(value)
 
 
 def _require(meta: dict, key: str, types, path: Path):

@@ -19,6 +19,7 @@ from bomc_bt.config import Config
 from bomc_bt.geometry import Pose2D
 from bomc_bt.robot import RobotPort
 from bomc_bt.site import Site, TrajectoryRecorder
+from bomc_bt.trail import Trail
 
 if TYPE_CHECKING:  # annotations only: a context does not import the planners and the graph
     from bomc_bt.exploration.explorer import Explorer
@@ -26,6 +27,7 @@ if TYPE_CHECKING:  # annotations only: a context does not import the planners an
     from bomc_bt.monitoring import Perception, TraversalState
     from bomc_bt.planner import GridPlanner
     from bomc_bt.store import SiteStore
+    from bomc_bt.stuck import StuckWatch
     from bomc_bt.traversal import TraversalPlan
 
 
@@ -53,6 +55,7 @@ class MissionContext:
     max_time: float | None = None
     dock: Pose2D | None = None  # where the robot starts a pass: the hint for relocalization
     resume: bool = False  # continue the session's pass where a killed run left it
+    restored: bool = False  # the robot's state was put back from the pass's resume point
     progress: Progress = field(default_factory=Progress)
     trajectory: TrajectoryRecorder | None = None
     explorer: Explorer | None = None  # during a build
@@ -62,6 +65,8 @@ class MissionContext:
     traverse: TraversalState | None = None
     perception: Perception | None = None
     map_planner: GridPlanner | None = None  # shortest paths on the saved map (NavigateTo's detour test)
+    trail: Trail = field(default_factory=Trail)  # the way the robot drove in (NavigateTo adds; a back-out follows)
+    watch: StuckWatch | None = None  # missed waypoints in a row and the recovery log (behaviours/recover.py)
     outcome: str = ""
     reason: str = ""
 

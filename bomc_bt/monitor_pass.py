@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import MISSED, TraversalState, detour_viewpoints
+from bomc_bt.pass_resume import waypoint_progress
 from bomc_bt.traversal import TraversalPlan
 
 
@@ -25,9 +26,14 @@ def progress_key(session: int) -> str:
     return f"traverse/{session}"
 
 
-def save_pass(store, session: int, state: TraversalState) -> None:
-    """Write the pass's progress and plan to the store (what a resume reads back)."""
-    store.set_progress(progress_key(session), {**state.to_json(), "plan": state.plan.to_json()})
+def save_pass(store, session: int, state: TraversalState, perception=None) -> None:
+    """Write the pass's progress and plan to the store (what a resume reads back); with the
+    pass's ``perception``, its resume point and coverage in the same transaction
+    (:mod:`bomc_bt.pass_resume`)."""
+    keys = {progress_key(session): {**state.to_json(), "plan": state.plan.to_json()}}
+    if perception is not None and getattr(perception, "store", None) is store:  # the pass's own store
+        keys.update(waypoint_progress(perception, perception.robot))
+    store.record([], [], keys)
 
 
 def open_pass(store, session: int, resume: bool, make_plan: Callable[[], TraversalPlan]) -> TraversalState:
@@ -42,10 +48,11 @@ def open_pass(store, session: int, resume: bool, make_plan: Callable[[], Travers
     return state
 
 
-def extend_pass(store, session: int, state: TraversalState, phase: str, views: list[Pose2D]) -> None:
+def extend_pass(store, session: int, state: TraversalState, phase: str, views: list[Pose2D],
+                perception=None) -> None:
     """Append ``phase``'s viewpoints to the pass and save it."""
     state.add_viewpoints(phase, views)
-    save_pass(store, session, state)
+    save_pass(store, session, state, perception)
 
 
 def pass_exhausted(state: TraversalState) -> bool:

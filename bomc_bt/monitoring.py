@@ -20,6 +20,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.pass_resume import frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon
@@ -255,7 +256,9 @@ class Perception:
 
     ``graph`` and ``store`` are the pass's :class:`~bomc_bt.graph.ObjectGraph` and
     :class:`~bomc_bt.store.SiteStore` (the store may be None: nothing is persisted);
-    ``grid`` is the saved map the observed area is counted on.
+    ``grid`` is the saved map the observed area is counted on. With a store, every frame
+    is committed with the pass's resume point (:mod:`bomc_bt.pass_resume`), taken from
+    ``robot`` where it can give its state.
     """
 
     detector: Detector
@@ -267,7 +270,9 @@ class Perception:
     session: int
     grid: InitVar[OccupancyGrid]
     occlusion_check: bool = True
+    robot: Any = None  # the robot whose state a frame's commit saves (None: none saved)
     coverage: Coverage = field(init=False)
+    fov_since: list = field(default_factory=list)  # view polygons since the last coverage snapshot
     frames: int = 0  # frames processed
     events: list = field(default_factory=list)  # every event of the pass, in order
 
@@ -281,14 +286,16 @@ class Perception:
         observations = detections_to_observations(frame, detections, self.params)
         polygon = fov_polygon(frame, self.params)
         self.coverage.add(polygon)
+        if polygon is not None and len(polygon) >= 3:
+            self.fov_since.append(np.asarray(polygon, dtype=float).tolist())
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
         expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates
         weights = miss_weights(frame, expected, self.params) if self.occlusion_check else None
         events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
                                       in_view=[n.id for n in candidates], miss_weights=weights)
         changed = self.graph.drain_changed()
-        if self.store is not None and (events or changed):
-            self.store.record(events, changed)
         self.frames += 1
+        if self.store is not None:  # every frame: the resume point moves on even without events
+            self.store.record(events, changed, frame_progress(self, self.robot))
         self.events.extend(events)
         return FrameResult(len(detections), len(observations), len(expected), events)

@@ -46,6 +46,7 @@ class NetChange:
     session: int  # the session of the node's last event in the period (where last_seen is measured)
     stamp: float  # robot time of that event
     events: int  # raw events of the node in the period
+    merged: bool = False  # a removal: folded into a neighbour of its category whose id is not recorded
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-able dict (positions and times rounded to cm and 0.1 s)."""
@@ -55,7 +56,8 @@ class NetChange:
         return {"kind": self.kind, "node": self.node_id, "category": self.category, "old": xyz(self.old),
                 "new": xyz(self.new), "distance_m": round(self.distance, 2), "missing_frames": self.missing_frames,
                 "last_seen_s": None if self.last_seen is None else round(self.last_seen, 1),
-                "session": self.session, "stamp_s": round(self.stamp, 1), "events": self.events}
+                "session": self.session, "stamp_s": round(self.stamp, 1), "events": self.events,
+                "merged": self.merged}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> NetChange:
@@ -64,7 +66,8 @@ class NetChange:
             return None if p is None else np.array(p, dtype=float)
 
         return cls(d["kind"], int(d["node"]), d["category"], xyz(d["old"]), xyz(d["new"]), float(d["distance_m"]),
-                   d["missing_frames"], d["last_seen_s"], int(d["session"]), float(d["stamp_s"]), int(d["events"]))
+                   d["missing_frames"], d["last_seen_s"], int(d["session"]), float(d["stamp_s"]), int(d["events"]),
+                   bool(d.get("merged", False)))
 
     def describe(self) -> str:
         """One line an operator reads: what, where, and why we think so."""
@@ -119,7 +122,7 @@ def net_changes(events: Sequence[Event], since: int | None,
                                      a.stamp, counts[nid]))
         elif was and a.merged_into is None:
             out.append(NetChange("removed", nid, a.category, pos, None, 0.0, a.misses, a.last_seen, a.session,
-                                 a.stamp, counts[nid]))
+                                 a.stamp, counts[nid], bool((a.detail or {}).get("merged", False))))
         elif now and not was:
             out.append(NetChange("added", nid, a.category, None, pos, 0.0, None, None, a.session, a.stamp,
                                  counts[nid]))

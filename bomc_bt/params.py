@@ -36,6 +36,7 @@ def from_mapping(cls: type[T], data: Any, file: str | Path | None = None, where:
     values = {}
     for name, value in data.items():
         values[name] = coerce(hints[name], value, file, _join(where, name))
+        check_range(cls, name, values[name], file, _join(where, name))
     missing = [
         n for n, f in fields.items()
         if n not in values and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
@@ -101,11 +102,14 @@ def coerce(hint: Any, value: Any, file, where: str) -> Any:
             return value
     elif hint is int:
         if isinstance(value, int) and not isinstance(value, bool):
+            if abs(value) > LARGEST:
+                raise BomcError(f"must be at most {LARGEST:.0e} in size, got {_describe(value)}", file, where)
             return value
     elif hint is float:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
-            if not math.isfinite(float(value)):
-                raise BomcError("must be a finite number", file, where)
+            if isinstance(value, int) and abs(value) > LARGEST or not math.isfinite(float(value)):
+                raise BomcError(f"must be a finite number at most {LARGEST:.0e} in size, got {_describe(value)}",
+                                file, where)
             return float(value)
     elif hint is str:
         if isinstance(value, str):
@@ -131,6 +135,27 @@ def coerce(hint: Any, value: Any, file, where: str) -> Any:
             return value
         raise BomcError(f"must be one of {', '.join(map(repr, args))}, got {value!r}", file, where)
     raise BomcError(f"has the wrong type ({_describe(value)}; expected {_name(hint)})", file, where)
+
+
+LARGEST = 10**9  # no parameter of a robot mission means anything beyond this (metres, seconds, counts)
+NON_NEGATIVE_UNITS = {"s", "Hz", "count", "m2", "m/s", "deg/s"}  # times, periods, rates, sizes, speeds
+
+
+def check_range(cls: type, name: str, value: Any, file, where: str) -> None:
+    """Values with a physical meaning are range-checked by their documented unit: times,
+    periods, rates, counts, areas and speeds are never negative (each record's own
+    ``__post_init__`` checks what is particular to it)."""
+    from bomc_bt.config_docs import field_docs
+
+    try:
+        doc = field_docs(cls).get(name)
+    except (OSError, TypeError, SyntaxError):  # a record without source (built at run time): no docs
+        return
+    if doc is None or doc.unit not in NON_NEGATIVE_UNITS:
+        return
+    sentinel = value == -1 and "-1" in doc.meaning  # a documented "-1: for ever"
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value < 0 and not sentinel:
+        raise BomcError(f"must not be negative ({doc.unit}), got {value}", file, where)
 
 
 def _join(where: str, name: str) -> str:

@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from bomc_bt.algorithm_params import PlannerParams
-from bomc_bt.costmap import clearance_fields
+from bomc_bt.costmap import clearance_fields, grid_clearance
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.path_smoothing import smooth_cells
 from bomc_bt.polyline import dedupe_waypoints, path_clear_of, path_length
@@ -42,12 +42,13 @@ class GridPlanner:
         factor = max(1, int(round(self.params.resolution / grid.resolution)))
         self.factor = factor
         self.resolution = grid.resolution * factor
-        obstacles = grid.occupied_mask()
         if extra_obstacles is not None:
             if extra_obstacles.shape != grid.data.shape:
                 raise ValueError("extra_obstacles must have the grid's shape")
-            obstacles = obstacles | extra_obstacles
-        clearance, unknown = clearance_fields(obstacles, grid.unknown_mask(), grid.resolution, factor)
+            clearance, unknown = clearance_fields(grid.occupied_mask() | extra_obstacles, grid.unknown_mask(),
+                                                  grid.resolution, factor)
+        else:
+            clearance, unknown = grid_clearance(grid, factor)
         p = self.params
         lethal = clearance < p.robot_radius
         if not p.allow_unknown:
@@ -193,22 +194,24 @@ class GridPlanner:
     def _astar(self, s: tuple[int, int], g: tuple[int, int]) -> list[tuple[int, int]] | None:
         """Weighted A* with the octile heuristic (every step costs at least its length).
 
-        The heuristic of every cell is computed for the goal with numpy up front, so the
-        inner loop is list lookups only.
+        The heuristic is evaluated for a cell when the search first reaches it (the same
+        expression, in the same order, as a numpy pass over the grid would evaluate), so a
+        short plan on a building-sized map does not pay for a heuristic of every cell.
         """
         w, cost, moves = self._w, self._cost, self._moves
         start, goal = self._flat(*s), self._flat(*g)
-        rows, cols = np.divmod(np.arange(len(cost)), w)
-        dr = np.abs(rows - goal // w)
-        dc = np.abs(cols - goal % w)
+        goal_row, goal_col = divmod(goal, w)
+        row_gap = [abs(r - goal_row) for r in range(len(cost) // w)]  # |dr| per padded row
+        col_gap = [abs(c - goal_col) for c in range(w)]
         # A hair above the weight breaks ties towards the goal (fewer expansions in the open).
         scale = self.params.heuristic_weight * (1.0 + 1e-3)
-        heur = ((dr + dc + (_SQRT2 - 2.0) * np.minimum(dr, dc)) * scale).tolist()
-        best = [math.inf] * len(cost)
+        diagonal = _SQRT2 - 2.0
+        inf = math.inf
+        best = [inf] * len(cost)
         closed = [False] * len(cost)
+        best[start] = 0.0
         self._last_costs: list[float] = []  # cost-to-come along the returned path
         parent: dict[int, int] = {start: -1}
-        best[start] = 0.0
         heap = [(0.0, 0.0, start)]
         push, pop = heapq.heappush, heapq.heappop
         while heap:
@@ -230,7 +233,9 @@ class GridPlanner:
                 if ng < best[j] and not closed[j]:
                     best[j] = ng
                     parent[j] = i
-                    push(heap, (ng + heur[j], ng, j))
+                    row, col = divmod(j, w)
+                    dr, dc = row_gap[row], col_gap[col]
+                    push(heap, (ng + (dr + dc + diagonal * (dr if dr < dc else dc)) * scale, ng, j))
         return None
 
     def distances_from(self, start_xy) -> np.ndarray:

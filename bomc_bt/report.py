@@ -58,14 +58,18 @@ def session_summary(ctx) -> dict[str, Any]:
         },
         "traversal": ctx.traverse.summary() if ctx.traverse else {},
         "localized": read_key(LOCALIZED_KEY, "no"),
+        "recoveries": ctx.watch.summary() if getattr(ctx, "watch", None) else [],
     }
 
 
-def write_session_report(ctx, close: bool = True) -> dict[str, Any]:
-    """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store."""
+def write_session_report(ctx, close: bool = True, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store.
+
+    ``extra`` keys are added to the summary (a replayed pass adds ``localized`` and ``replay``).
+    """
     if close:  # the history exact at the pass's end before the net changes are read from it
         ctx.store.reconcile(ctx.session, ctx.now())
-    summary = session_summary(ctx)
+    summary = {**session_summary(ctx), **(extra or {})}
     if close:
         ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()})
     out = ctx.site.session_dir(ctx.session)
@@ -106,6 +110,14 @@ def report_markdown(s: dict[str, Any]) -> str:
         lines.append("- largest unobserved regions:")
         lines += [f"  - ({r['x']}, {r['y']}): {r['area_m2']} m²" for r in regions[:10]]
     lines += _changes_markdown(s.get("changes"))
+    r = s.get("replay")
+    if r:
+        lines.append(f"- replayed from {r['bag']} ({r['rate']}): frames processed {r['processed']}, "
+                     f"dropped {r['dropped']}, skipped {r['skipped']} (of {r['frames_in_bag']} in the bag); "
+                     f"not-model cost {r['not_model_ms_per_frame']} ms per frame")
+    for r in s.get("recoveries", []):
+        lines.append(f"- at {r['stamp']} s: {r['trigger']}; {r['cause']}: {r['detail']}; "
+                     f"did: {r['action'] or 'nothing'}{'; ' + r['result'] if r['result'] else ''}")
     if s.get("reason"):
         lines.append(f"- reason: {s['reason']}")
     return "\n".join(lines) + "\n"

@@ -152,5 +152,10 @@ class RobotPort(Protocol):
     def relocalize(self, hint: Pose2D | None, global_search: bool = False) -> Handle:
         """Start estimating the pose in the map in use, from ``hint`` or globally."""
 
+    def clear_costmaps(self) -> None:
+        """Forget the obstacles navigation marked from earlier scans; the next scans rebuild
+        them (move_base's ``clear_costmaps``). A pass that keeps failing waypoints clears a
+        stale obstacle layer this way (:mod:`bomc_bt.stuck`)."""
+
     def cancel_all(self) -> None:
         """Stop the robot: cancel navigation (Ctrl-C, abort)."""

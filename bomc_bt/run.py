@@ -253,8 +253,10 @@ def make_perception(config: Config, seed: int, base_dir: Path):
     return detector, detector
 
 
-def check_session(store, session: int, resume: bool, store_path: Path) -> None:
-    """Sessions run in order and history is never overwritten."""
+def check_session(store, session: int, resume: bool, store_path: Path, seed: int | None = None,
+                  world_last: int = 1) -> None:
+    """Sessions run in order and history is never overwritten; a resumed pass keeps its seed
+    (the continued pass draws from the same random streams)."""
     records = {s.number: s for s in store.sessions()}
     last = max(records, default=0)
     if session in records:
@@ -264,9 +266,16 @@ def check_session(store, session: int, resume: bool, store_path: Path) -> None:
         if not resume:
             raise BomcError(f"session {session} was started but not finished: add --resume to continue it",
                             store_path, "--session")
+        started = records[session].info.get("seed") if isinstance(records[session].info, dict) else None
+        if seed is not None and isinstance(started, int) and started != seed:
+            raise BomcError(f"session {session} was started with --seed {started}; resume it with --seed {started}",
+                            store_path, "--seed")
     elif session < last:
         raise BomcError(f"session {session} is older than the last recorded session {last}", store_path,
                         "--session")
+    elif session > max(last, world_last) + 1:
+        raise BomcError(f"session {session} is beyond what the site and the world hold (the site's last is {last}, "
+                        f"the world's {world_last}): the next is {last + 1}", store_path, "--session")
 
 
 def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: int, *,
@@ -279,6 +288,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
     from bomc_bt.grid import load_map
     from bomc_bt.mission_trees import check_mission_tree
     from bomc_bt.monitoring import Perception
+    from bomc_bt.pass_resume import restore_pass
     from bomc_bt.report import session_summary
     from bomc_bt.store import SiteStore
 
@@ -288,7 +298,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
     factory.prepare(config)
     check_mission_tree(Path(tree) if tree else default_tree("monitor"), "monitor")
     lock = lock_for_monitor(Path(site_dir))  # one writer for the whole pass (bomc_bt.site_lock)
-    store = robot = None
+    store = robot = lease = None
     try:
         site = Site(Path(site_dir))  # after the lock: the current generation, read once
         site.require_build()
@@ -297,15 +307,20 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         categories = factory.categories(config)
         factory.connect()
         store = SiteStore(site.store_path)
-        check_session(store, session, resume, site.store_path)
+        store.verify()  # a corrupt store is refused before the pass writes anything
+        world = getattr(factory, "world", None)  # the simulator's: sessions it describes
+        check_session(store, session, resume, site.store_path, seed, getattr(world, "last_session", 1))
+        lease = _floor_lease(site, store, config)  # a fleet site: one pass per floor (bomc_bt.central.lease)
         graph = store.load_graph(config.association)
         robot = factory.monitor_robot(config, session)
         robot.use_map(grid)
         detector, segmenter = make_perception(config, seed, perception_base_dir(config))
         perception = Perception(detector, segmenter, categories, config.projection, graph, store, session, grid,
-                                occlusion_check=config.association.mode != "paper")
+                                occlusion_check=config.association.mode != "paper", robot=robot)
+        restored = resume and restore_pass(store, session, robot, perception)  # bomc_bt.pass_resume
         ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
-                             seed=seed, store=store, graph=graph, perception=perception, dock=dock, resume=resume)
+                             seed=seed, store=store, graph=graph, perception=perception, dock=dock, resume=resume,
+                             restored=restored)
         try:
             result = run_tree(ctx, Path(tree) if tree else default_tree("monitor"), quiet=quiet, stream=stream,
                               max_time=max_time, hooks=list(hooks) + factory.mission_hooks(ctx),
@@ -321,7 +336,21 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
             factory.release(robot)
         if store is not None:
             store.close()
+        if lease is not None:
+            lease.release()
         lock.release()
+
+
+def _floor_lease(site: Site, store, config: Config):
+    """The floor's lease when the site is part of a fleet (site.json names a central store), else None."""
+    from bomc_bt.site import current_generation
+
+    if not (site.root / "site.json").exists():
+        return None
+    from bomc_bt.central.lease import take_floor_lease
+
+    sessions = {s.number for s in store.sessions()}
+    return take_floor_lease(site.root, config.central, sessions, current_generation(site.root) or 1)
 
 
 def _pass_interrupted(ctx: MissionContext) -> None:

@@ -10,29 +10,32 @@ open the store with ``readonly=True`` and change no byte of the site
 Tables:
 
 * ``schema_version`` -- one row; a file with an unknown version or without our tables is
-  refused with a :class:`BomcError` instead of being guessed at. Version 1 stores (before
-  node footprints) and version 2 stores (before removal evidence) are upgraded in place by
-  the next writer, adding the empty columns in one transaction: nothing in them changes
-  meaning. A reader reads a version 2 store as it is (its removals have no evidence).
+  refused with a :class:`BomcError` instead of being guessed at. Older stores are upgraded
+  in place by a writer, in one transaction, by adding empty columns (version 1 had no node
+  footprints, version 2 no event details): nothing in them changes meaning. A reader reads
+  a version 2 store as it is.
 * ``nodes`` -- the current state of every id ever issued (removed ones with state
   ``removed``), so the next id continues from the max id ever issued; with the floor
   footprint the association learned for it (NULL when unknown).
 * ``node_history`` -- every event, append-only; :meth:`SiteStore.graph_after` rebuilds
-  the graph as it stood at the end of any session from it. Nothing is overwritten. A
-  removal keeps its evidence: the misses that confirmed it and when the node was last seen.
+  the graph as it stood at the end of any session from it. Nothing is overwritten.
+  ``detail`` (JSON, may be NULL) holds a removal's evidence (misses, seen, merged), marks the
+  rows an ended session writes to reconcile positions, and carries an operator's edit
+  (:data:`~bomc_bt.graph.OPERATOR_KINDS`, :mod:`bomc_bt.site.edits`), which
+  :meth:`SiteStore.events` leaves out unless asked: a pass's events are what it observed.
 * ``sessions`` -- one row per monitor pass: started/ended robot time and wall time (the
   wall time is for people reading the report, never for timing), outcome, counts, report.
 * ``progress`` -- small JSON key/value pairs for resuming a mission (next waypoint index).
 
 Every sqlite3 failure (not a database, locked, disk full) becomes a ``BomcError`` naming
-the file, since a user meets these by pointing the tool at the wrong file or running two
-passes at once.
+the file: a user meets these by pointing at the wrong file or running two passes at once.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
 import json
 import sqlite3
 import threading
@@ -44,10 +47,21 @@ from typing import Any
 import numpy as np
 
 from bomc_bt.errors import BomcError
-from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node, ObjectGraph
-from bomc_bt.store_schema import SCHEMA, connect, has_evidence, open_schema
+from bomc_bt.graph import OPERATOR_KINDS, PRESENT, AssociationParams, Event, Node, ObjectGraph
+from bomc_bt.graph.history import replay_graph  # also what readers of the central store replay
+from bomc_bt.graph.operator_edits import OperatorEdits
+from bomc_bt.store_schema import (
+    EVENT_COLUMNS,
+    NODE_COLUMNS,
+    SCHEMA,
+    SESSION_COLUMNS,
+    checked_rows,
+    connect,
+    open_schema,
+)
 
 FILENAME = "site.db"
+_OPERATOR_SQL = "(" + ", ".join(f"'{k}'" for k in OPERATOR_KINDS) + ")"
 _SCHEMA = SCHEMA  # the schema text, for tests that write old versions of it
 
 
@@ -89,8 +103,7 @@ class SiteStore:
             self._db = connect(path, busy_timeout, readonly)
         try:
             with self._errors("open"):
-                open_schema(self._db, path, readonly)
-                self._evidence = has_evidence(self._db)
+                self.version = open_schema(self._db, path, readonly)
         except BomcError:
             self._db.close()
             raise
@@ -102,6 +115,8 @@ class SiteStore:
             yield
         except sqlite3.DatabaseError as exc:
             text = str(exc)
+            if "disk is full" in text or "disk I/O error" in text:  # the environment, not the input: exit 1
+                raise OSError(errno.ENOSPC if "full" in text else errno.EIO, text, str(self.path)) from None
             if "not a database" in text or "malformed" in text:
                 msg = f"not a bomc site store (the file is not an SQLite database or is corrupt: {text})"
             elif "locked" in text or "busy" in text:
@@ -118,13 +133,25 @@ class SiteStore:
             try:
                 yield self._db
             except BaseException:
-                self._db.execute("ROLLBACK")
+                if self._db.in_transaction:  # SQLite rolls back by itself on SQLITE_FULL and I/O errors
+                    self._db.execute("ROLLBACK")
                 raise
             self._db.execute("COMMIT")
 
-    def _query(self, sql: str, args: tuple = ()) -> list[tuple]:
+    def _query(self, sql: str, args: tuple = (), kinds: str = "", table: str = "") -> list[tuple]:
+        """Rows of ``sql``; with ``kinds``, each value checked (store_schema.checked_rows)."""
         with self._lock, self._errors("read"):
-            return self._db.execute(sql, args).fetchall()
+            rows = self._db.execute(sql, args).fetchall()
+        return checked_rows(rows, kinds, self.path, table) if kinds else rows
+
+    def verify(self) -> None:
+        """Read every row once, checked: a writer calls it before it writes, so that a corrupt
+        store is refused (exit 2) with nothing changed instead of failing half-way."""
+        self.sessions()
+        self.nodes(include_removed=True)
+        self.events()
+        for (key,) in self._query("SELECT key FROM progress", (), "s", "progress"):
+            self.get_progress(key)
 
     def close(self) -> None:
         with self._lock:
@@ -139,7 +166,7 @@ class SiteStore:
     # ------------------------------------------------------------- sessions
     def next_session(self) -> int:
         """The number a new session should get: one past the highest recorded (1 if none)."""
-        rows = self._query("SELECT MAX(number) FROM sessions")
+        rows = self._query("SELECT MAX(number) FROM sessions", (), "I", "sessions")
         return (rows[0][0] or 0) + 1
 
     def begin_session(self, number: int, info: dict[str, Any] | None = None) -> bool:
@@ -175,7 +202,8 @@ class SiteStore:
                 raise BomcError(f"session {number} was never begun", self.path, "sessions")
             self._reconcile(db, number, stamp)
             counts = dict(db.execute(
-                "SELECT kind, COUNT(*) FROM node_history WHERE session=? GROUP BY kind", (number,)
+                f"SELECT kind, COUNT(*) FROM node_history WHERE session=? AND kind NOT IN {_OPERATOR_SQL}"
+                " GROUP BY kind", (number,)
             ).fetchall())
             present = db.execute("SELECT COUNT(*) FROM nodes WHERE state=?", (PRESENT,)).fetchone()[0]
             counts["present"] = present
@@ -207,18 +235,18 @@ class SiteStore:
         for nid, cat, x, y, z, c, hx, hy, hz, hc in rows:
             if (x, y, z, c) != (hx, hy, hz, hc):
                 db.execute(
-                    "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence)"
-                    " VALUES (?, ?, ?, 'updated', ?, ?, ?, ?, ?)",
+                    "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence, detail)"
+                    " VALUES (?, ?, ?, 'updated', ?, ?, ?, ?, ?, '{\"reconciled\": true}')",
                     (nid, session, stamp, cat, x, y, z, c),
                 )
 
     def sessions(self) -> list[SessionRecord]:
         rows = self._query(
             "SELECT number, started_stamp, started_wall, ended_stamp, ended_wall, outcome, counts, report,"
-            " info FROM sessions ORDER BY number"
+            " info FROM sessions ORDER BY number", (), SESSION_COLUMNS, "sessions"
         )
         return [
-            SessionRecord(n, s0, w0, s1, w1, out, _loads(counts), _loads(report), _loads(info))
+            SessionRecord(n, s0, w0, s1, w1, out, counts, report, info)
             for n, s0, w0, s1, w1, out, counts, report, info in rows
         ]
 
@@ -230,12 +258,12 @@ class SiteStore:
         with self._transaction("record") as db:
             for e in events:
                 prev = (None, None, None) if e.previous is None else tuple(map(float, _xyz(e.previous)))
+                detail = None if e.detail is None else json.dumps(e.detail, default=_jsonable)
                 db.execute(
                     "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence,"
-                    " px, py, pz, misses, seen, merged_into) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    " px, py, pz, detail) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (int(e.node_id), int(e.session), float(e.stamp), e.kind, e.category,
-                     *map(float, _xyz(e.position)), float(e.confidence), *prev,
-                     _opt_int(e.misses), _opt_float(e.last_seen), _opt_int(e.merged_into)),
+                     *map(float, _xyz(e.position)), float(e.confidence), *prev, detail),
                 )
             for n in nodes_changed:
                 box = (None,) * 4 if n.footprint is None else tuple(map(float, n.footprint))
@@ -246,14 +274,23 @@ class SiteStore:
                      *box),
                 )
             for key, value in (progress or {}).items():
-                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
 
     def load_graph(self, params: AssociationParams) -> ObjectGraph:
-        """The live graph (present nodes); new ids continue past every id ever issued."""
+        """The live graph (present nodes) with the operator's edits it must respect; new ids
+        continue past every id ever issued."""
         nodes = self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
         top = self._query("SELECT MAX(m) FROM (SELECT MAX(id) AS m FROM nodes UNION ALL"
-                          " SELECT MAX(id) FROM node_history)")[0][0]
-        return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1)
+                          " SELECT MAX(id) FROM node_history)", (), "I", "nodes")[0][0]
+        edited = self._events(f" WHERE id IN (SELECT id FROM node_history WHERE kind IN {_OPERATOR_SQL})"
+                              " ORDER BY seq", ())
+        return ObjectGraph(params, nodes, next_id=0 if top is None else top + 1,
+                           edits=OperatorEdits.from_history(edited))
+
+    def categories(self) -> list[str]:
+        """Every category a node of this store ever had, sorted."""
+        return [r[0] for r in self._query("SELECT category FROM node_history UNION SELECT category FROM nodes"
+                                          " ORDER BY 1", (), "s", "node_history")]
 
     def nodes(self, include_removed: bool = False) -> list[Node]:
         """The current node table (present nodes, or all ids ever issued)."""
@@ -265,7 +302,8 @@ class SiteStore:
         return [
             Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses,
                  None if None in box else np.array(box, dtype=float))
-            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box in self._query(sql, args)
+            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box
+            in self._query(sql, args, NODE_COLUMNS, "nodes")
         ]
 
     def graph_after(self, session: int) -> list[Node]:
@@ -273,51 +311,48 @@ class SiteStore:
 
         ``observations`` counts the node's add/update/move events (history does not keep
         every match) and ``misses`` is 0: both are bookkeeping, not part of the map.
+        Operator edits count from the pass they are filed under, the one after them
+        (:mod:`bomc_bt.site.edits`): the map that pass started from.
         """
-        nodes: dict[int, Node] = {}
-        for e in self.events(until=session):
-            node = nodes.get(e.node_id)
-            if e.kind == "added" or node is None:
-                nodes[e.node_id] = Node(e.node_id, e.category, e.position, e.confidence, e.session, e.session)
-                if e.kind == "removed":
-                    nodes[e.node_id].state = REMOVED
-                continue
-            node.position = e.position
-            node.confidence = e.confidence
-            if e.kind == "removed":
-                node.state = REMOVED
-            else:
-                node.state = PRESENT
-                node.last_session = e.session
-                node.observations += 1
-        return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
+        return replay_graph(self.events(until=session, operator=True))
 
-    def events(self, session: int | None = None, until: int | None = None) -> list[Event]:
-        """History in write order: of one ``session``, up to and including ``until``, or all."""
-        evidence = "misses, seen, merged_into" if self._evidence else "NULL, NULL, NULL"
-        sql = f"SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz, {evidence}" \
-              " FROM node_history"
+    def events(self, session: int | None = None, until: int | None = None, operator: bool = False) -> list[Event]:
+        """History in write order: of one ``session``, up to and including ``until``, or all.
+
+        The robot's events only, unless ``operator``: a pass's events are what it observed,
+        an operator's edits (:data:`~bomc_bt.graph.OPERATOR_KINDS`) are asked for apart.
+        """
+        where = [] if operator else [f"kind NOT IN {_OPERATOR_SQL}"]
+        args: tuple = ()
         if session is not None:
-            rows = self._query(sql + " WHERE session=? ORDER BY seq", (session,))
+            where, args = [*where, "session=?"], (session,)
         elif until is not None:
-            rows = self._query(sql + " WHERE session<=? ORDER BY seq", (until,))
-        else:
-            rows = self._query(sql + " ORDER BY seq")
+            where, args = [*where, "session<=?"], (until,)
+        return self._events((" WHERE " + " AND ".join(where) if where else "") + " ORDER BY seq", args)
+
+    def _events(self, tail: str, args: tuple) -> list[Event]:
+        detail = "detail" if self.version >= 3 else "NULL"
+        rows = self._query("SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz, "
+                           f"{detail} FROM node_history" + tail, args, EVENT_COLUMNS + "J", "node_history")
+        for n, row in enumerate(rows):
+            if len({v is None for v in row[9:12]}) > 1:  # a previous position is all three or none
+                raise BomcError(f"corrupt site store: node_history row {n + 1} has a partial previous position",
+                                self.path, "node_history.px")
         return [
             Event(kind, nid, cat, np.array([x, y, z]), sess, stamp,
-                  None if px is None else np.array([px, py, pz]), conf, misses, seen, merged)
-            for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz, misses, seen, merged in rows
+                  None if px is None else np.array([px, py, pz]), conf, text)
+            for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz, text in rows
         ]
 
     # ------------------------------------------------------------- progress
     def set_progress(self, key: str, value: Any) -> None:
         """Store a JSON-able value (e.g. the next waypoint index) for resuming."""
         with self._transaction("set_progress") as db:
-            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value)))
+            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
 
     def get_progress(self, key: str, default: Any = None) -> Any:
-        rows = self._query("SELECT value FROM progress WHERE key=?", (key,))
-        return json.loads(rows[0][0]) if rows else default
+        rows = self._query("SELECT value FROM progress WHERE key=?", (key,), "J", "progress")
+        return rows[0][0] if rows else default
 
 
 def _xyz(p: np.ndarray) -> np.ndarray:
@@ -331,16 +366,8 @@ def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
-def _opt_int(value: Any) -> int | None:
-    return None if value is None else int(value)
-
-
 def _opt_float(value: Any) -> float | None:
     return None if value is None else float(value)
-
-
-def _loads(text: str | None) -> dict[str, Any]:
-    return json.loads(text) if text else {}
 
 
 def _jsonable(value: Any) -> Any:

@@ -1,7 +1,7 @@
 """Opening ``site.db``: the schema, its version check and upgrade, and read-only connections.
 
-A writer (a monitor pass) opens the file read-write: an empty file gets the schema, a
-version 1 file is upgraded in place (see :mod:`bomc_bt.store`). A reader (``bomc
+A writer (a monitor pass) opens the file read-write: an empty file gets the schema, an
+older version is upgraded in place (see :mod:`bomc_bt.store`). A reader (``bomc
 evaluate``, ``bomc view``, a build checking whether the site has a graph) opens it
 read-only, so it works on a site nobody may write (a copy, an archive, ``chmod a-w``)
 and changes no byte of it. SQLite's WAL mode needs care there:
@@ -25,6 +25,7 @@ take to read a site.
 
 from __future__ import annotations
 
+import json
 import sqlite3
 import urllib.parse
 from pathlib import Path
@@ -32,11 +33,12 @@ from pathlib import Path
 from bomc_bt.errors import BomcError
 
 SCHEMA_VERSION = 3
+READABLE_VERSIONS = (2, 3)  # a reader reads these as they are (version 2 has no event details)
 FOOTPRINT = ("fx0", "fy0", "fx1", "fy1")
-# the evidence a removal was decided on (version 3): misses counted, robot time last seen, merge
-EVIDENCE = ("misses", "seen", "merged_into")
-_ADDED_COLUMNS = {"nodes": [f"{c} REAL" for c in FOOTPRINT],
-                  "node_history": ["misses INTEGER", "seen REAL", "merged_into INTEGER"]}
+# Upgrades, in place, from each old version: the columns it lacks (table, column). Version 2
+# added the node footprints, version 3 the event details (operator edits, removal evidence).
+UPGRADES = {1: (("nodes", "fx0"), ("nodes", "fy0"), ("nodes", "fx1"), ("nodes", "fy1")),
+            2: (("node_history", "detail"),)}
 
 SCHEMA = """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
@@ -49,7 +51,7 @@ CREATE TABLE node_history (
     seq INTEGER PRIMARY KEY AUTOINCREMENT, id INTEGER NOT NULL, session INTEGER NOT NULL,
     stamp REAL NOT NULL, kind TEXT NOT NULL, category TEXT NOT NULL,
     x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL, confidence REAL NOT NULL,
-    px REAL, py REAL, pz REAL, misses INTEGER, seen REAL, merged_into INTEGER);
+    px REAL, py REAL, pz REAL, detail TEXT);
 CREATE INDEX node_history_session ON node_history (session);
 CREATE TABLE sessions (
     number INTEGER PRIMARY KEY, started_stamp REAL, started_wall TEXT NOT NULL,
@@ -81,47 +83,54 @@ def _connect_ro(path: Path, busy_timeout: float, immutable: bool) -> sqlite3.Con
     return sqlite3.connect(uri, uri=True, timeout=busy_timeout, isolation_level=None, check_same_thread=False)
 
 
-def open_schema(db: sqlite3.Connection, path: Path, readonly: bool) -> None:
-    """Check (reader) or create / upgrade (writer) the schema of an open store."""
+def open_schema(db: sqlite3.Connection, path: Path, readonly: bool) -> int:
+    """Check (reader) or create / upgrade (writer) the schema of an open store; its version.
+
+    A writer upgrades an old store in place, one version at a time, in one transaction
+    (new columns are NULL: nothing already stored changes meaning). A reader takes a
+    version 2 store as it is: the event details it lacks read as None.
+    """
     tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     tables.discard("sqlite_sequence")
     if not tables and not readonly:
         db.execute("PRAGMA journal_mode=WAL")
         _script(db, f"BEGIN IMMEDIATE;{SCHEMA}INSERT INTO schema_version VALUES ({SCHEMA_VERSION});COMMIT;")
-        return
+        return SCHEMA_VERSION
     if not tables >= TABLES:
         missing = ", ".join(sorted(TABLES - tables))
         raise BomcError(f"not a bomc site store (missing tables: {missing})", path)
     rows = db.execute("SELECT version FROM schema_version").fetchall()
-    if len(rows) == 1 and rows[0][0] == 1 and readonly:
+    found = rows[0][0] if len(rows) == 1 else None
+    if readonly and found in READABLE_VERSIONS:
+        return found
+    if readonly and found == 1:
         raise BomcError("a version 1 store is upgraded by the next `bomc monitor`; it cannot be read "
                         "before that", path, "schema_version")
-    if len(rows) == 1 and rows[0][0] == 2 and readonly:
-        return  # read as it is: its history has no removal evidence (has_evidence is False)
-    if len(rows) == 1 and rows[0][0] in (1, 2):
-        _script(db, "BEGIN IMMEDIATE;" + "".join(_missing_columns(db))
+    if not readonly and found in UPGRADES:
+        _script(db, "BEGIN IMMEDIATE;" + _upgrade_sql(db, found)
                 + f"UPDATE schema_version SET version = {SCHEMA_VERSION};COMMIT;")
-        rows = [(SCHEMA_VERSION,)]
-    if len(rows) != 1 or rows[0][0] != SCHEMA_VERSION:
-        found = rows[0][0] if len(rows) == 1 else "none"
-        raise BomcError(f"unsupported site store schema version {found} (expected {SCHEMA_VERSION})",
-                        path, "schema_version")
+        found = SCHEMA_VERSION
+    if found != SCHEMA_VERSION:
+        raise BomcError(f"unsupported site store schema version {'none' if found is None else found} "
+                        f"(expected {SCHEMA_VERSION})", path, "schema_version")
     if not readonly:
         db.execute("PRAGMA journal_mode=WAL")
+    return found
 
 
-def _missing_columns(db: sqlite3.Connection) -> list[str]:
-    """ALTER TABLE statements adding what versions 1 (footprints) and 2 (evidence) lack."""
-    out = []
-    for table, columns in _ADDED_COLUMNS.items():
-        have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
-        out += [f"ALTER TABLE {table} ADD COLUMN {c};" for c in columns if c.split()[0] not in have]
-    return out
+def _upgrade_sql(db: sqlite3.Connection, version: int) -> str:
+    """The ALTER statements that bring a store of ``version`` to the current schema
+    (a column already there is skipped)."""
+    statements = []
+    for step in range(version, SCHEMA_VERSION):
+        for table, column in UPGRADES[step]:
+            have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
+            if column not in have:
+                statements.append(f"ALTER TABLE {table} ADD COLUMN {column} {_TYPES[column]};")
+    return "".join(statements)
 
 
-def has_evidence(db: sqlite3.Connection) -> bool:
-    """Whether the history has the removal evidence columns (a version 2 store read-only has not)."""
-    return {r[1] for r in db.execute("PRAGMA table_info(node_history)")} >= set(EVIDENCE)
+_TYPES = {**dict.fromkeys(FOOTPRINT, "REAL"), "detail": "TEXT"}
 
 
 def _script(db: sqlite3.Connection, script: str) -> None:
@@ -132,3 +141,55 @@ def _script(db: sqlite3.Connection, script: str) -> None:
         if db.in_transaction:
             db.execute("ROLLBACK")
         raise
+
+
+# What each column read back must hold: a file edited by hand or by another program can put
+# text in a number column or broken JSON in a report; that is an error naming the table,
+# column and row, never a crash further on. Kinds: i int, f finite number, s text, j JSON
+# object text, J any JSON text; upper case: NULL allowed.
+NODE_COLUMNS = "isffffiisiiFFFF"
+EVENT_COLUMNS = "iifssffffFFF"
+SESSION_COLUMNS = "iFsFSSjjj"
+NAMES = {
+    "nodes": ("id", "category", "x", "y", "z", "confidence", "first_session", "last_session", "state",
+              "observations", "misses", *FOOTPRINT),
+    "node_history": ("id", "session", "stamp", "kind", "category", "x", "y", "z", "confidence", "px", "py", "pz",
+                     "detail"),
+    "sessions": ("number", "started_stamp", "started_wall", "ended_stamp", "ended_wall", "outcome", "counts",
+                 "report", "info"),
+    "progress": ("value",),
+}
+_INT_LIMIT = 2**62
+
+
+def checked_rows(rows: list[tuple], kinds: str, path: Path, table: str) -> list[tuple]:
+    """``rows`` with every value checked against ``kinds`` (JSON columns parsed)."""
+    return [tuple(_checked(v, k, path, table, i, n) for i, (v, k) in enumerate(zip(row, kinds, strict=True)))
+            for n, row in enumerate(rows)]
+
+
+def _checked(value, kind: str, path: Path, table: str, column: int, row: int):
+    if value is None and kind in "IFSJj":
+        return {} if kind == "j" else None
+    if kind in "iI" and isinstance(value, int) and abs(value) < _INT_LIMIT:
+        return value
+    if kind in "fF" and isinstance(value, (int, float)) and abs(value) < 1e12:  # also refuses NaN
+        return value
+    if kind in "sS" and isinstance(value, str):
+        return value
+    if kind in "jJ" and isinstance(value, str):
+        if kind == "j" and not value:
+            return {}
+        try:
+            parsed = json.loads(value)
+        except ValueError:
+            parsed = _BAD
+        if parsed is not _BAD and (kind == "J" or isinstance(parsed, dict)):
+            return parsed
+    names = NAMES.get(table, ())
+    name = names[column] if column < len(names) else f"column {column + 1}"
+    raise BomcError(f"corrupt site store: {table}.{name} of row {row + 1} holds {repr(value)[:40]}", path,
+                    f"{table}.{name}")
+
+
+_BAD = object()

@@ -34,10 +34,11 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   .venv/bin/python -m pip install -q -e ".[test]"
   touch "$stamp"
 fi
-# Optional system packages: ROS 1 (Debian's, for --ros, sim-ros and tests/test_ros.py) and
-# Chromium with its driver (the viewer tests). Best effort: installed only where we are root
+# Optional system packages: ROS 1 (Debian's, for --ros, sim-ros and tests/test_ros.py),
+# Chromium with its driver (the viewer tests) and PostgreSQL (the central store's tests start
+# their own server with initdb / pg_ctl; as root they run it as the package's 'postgres' user). Best effort: installed only where we are root
 # and apt-get exists; without them those tests skip and say why, and setup still succeeds.
-optional="$(.venv/bin/python -c 'from bomc_bt.ros import APT_PACKAGES; print(APT_PACKAGES)') chromium chromium-driver"
+optional="$(.venv/bin/python -c 'from bomc_bt.ros import APT_PACKAGES; print(APT_PACKAGES)') chromium chromium-driver postgresql"
 missing=""
 for pkg in $optional; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing="$missing $pkg"
@@ -47,7 +48,7 @@ if [ -n "$missing" ]; then
   if apt_install $missing; then
     echo "setup: installed$missing"
   else
-    echo "setup: optional packages missing (ROS / viewer tests will skip): as root, apt-get install -y$missing" >&2
+    echo "setup: optional packages missing (ROS / viewer / central-store tests will skip): as root, apt-get install -y$missing" >&2
   fi
 fi
 echo "setup: ready (.venv/bin/bomc)"

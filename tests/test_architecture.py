@@ -21,6 +21,7 @@ MAX_LINES = 400
 
 # Plain algorithms: testable with numpy alone, reusable outside a behaviour tree or ROS.
 ALGORITHM_MODULES = (
+    "bomc_bt.anytime",
     "bomc_bt.exploration",
     "bomc_bt.traversal",
     "bomc_bt.refresh",

@@ -173,3 +173,43 @@ def test_noise_grows_with_depth_and_is_deterministic_per_stamp():
     err = f1.depth - ref.depth
     near, far = ref.depth < 2.5, (ref.depth > 5.0) & (ref.depth < 8.0)
     assert np.nanstd(err[far]) > 3.0 * np.nanstd(err[near])
+
+
+def _draw_everything(monkeypatch) -> None:
+    """Make the camera slab-test every box over the whole image (no cull, no screen rectangle)
+    except the two cases where no pixel can be drawn: all corners behind the camera or all
+    beyond depth_max."""
+    from bomc_bt.sim import raycast, solids
+
+    def whole_image(corners, T_map_camera, shape, K, depth_max):
+        z = ((corners - T_map_camera[:3, 3]) @ T_map_camera[:3, :3])[:, 2]
+        if z.max() <= raycast.NEAR or z.min() > depth_max:
+            return None
+        return 0, shape[0], 0, shape[1]
+
+    monkeypatch.setattr(raycast, "_screen_rect", whole_image)
+    monkeypatch.setattr(solids.SceneSolids, "candidates", lambda self, *a: list(range(len(self.boxes))))
+
+
+def test_culling_boxes_out_of_view_changes_no_pixel(monkeypatch):
+    """The per-frame cull and the screen rectangles (also of boxes beside or around the camera)
+    give the same frames as testing every box against every pixel."""
+    rng = np.random.default_rng(4)
+    walls, grid = empty_world(30.0)
+    objects = [WorldObject(f"o{i}", "chair", (*rng.uniform(-12, 12, 2), 0.5), tuple(rng.uniform(0.2, 2.5, 3)),
+                           float(rng.uniform(-3, 3))) for i in range(60)]
+    obstacles = [Obstacle(tuple(rng.uniform(-12, 12, 2)), tuple(rng.uniform(0.3, 3.0, 2)), 1.0) for _ in range(10)]
+    poses = [Pose2D(*rng.uniform(-12, 12, 2), float(rng.uniform(-3, 3))) for _ in range(10)]
+    # Standing inside, at the side of and right behind a box: its corners straddle the camera.
+    poses += [Pose2D(o.position[0] + dx, o.position[1] + dy, yaw) for o in objects[:4]
+              for dx, dy, yaw in ((0.0, 0.0, 0.3), (0.6, 0.4, 2.0), (-0.9, 0.1, 0.0))]
+    people = [(p.x + 1.0, p.y - 0.2) for p in poses[:3]]
+    fast = [render(camera(scale=0.25), walls, grid, objects, obstacles, people, pose) for pose in poses]
+    _draw_everything(monkeypatch)
+    slow = [render(camera(scale=0.25), walls, grid, objects, obstacles, people, pose) for pose in poses]
+    assert sum(len(f.instance_unoccluded) for f in slow) > len(poses)  # the scenes show boxes
+    for a, b in zip(fast, slow, strict=True):
+        assert np.array_equal(a.depth, b.depth, equal_nan=True)
+        assert np.array_equal(a.instances, b.instances)
+        assert np.array_equal(a.rgb, b.rgb)
+        assert a.instance_unoccluded == b.instance_unoccluded

@@ -62,7 +62,7 @@ def test_monitor_without_a_build(tmp_path, shared):
 def test_corrupt_store_is_reported_and_left_alone(tmp_path, shared):
     world = str(shared / "worlds" / "lab-b.yaml")
     # cut short by --max-time: exit 1 (incomplete), but the map and the store are written
-    assert bomc("build", "--world", world, "--site", str(tmp_path), "--quiet", "--max-time", "30").returncode == 1
+    assert bomc("build", "--world", world, "--site", str(tmp_path), "--quiet", "--max-time", "10").returncode == 1
     (tmp_path / "site.db").write_bytes(b"this is not a database" * 100)
     result = bomc("monitor", "--world", world, "--site", str(tmp_path), "--session", "1", "--quiet")
     assert_user_error(result, "site.db")

@@ -1,5 +1,6 @@
-"""The exploration loop's memory, driven without a tree on scripted grids: blacklist
-re-admission, back-out before stuck, the progress guard, and planner reachability."""
+"""The exploration loop's memory, driven without a tree on scripted grids (with the DWFE
+ranking: the loop is the same for every explorer): blacklist re-admission, back-out
+before stuck, the progress guard, and planner reachability."""
 
 from __future__ import annotations
 
@@ -69,7 +70,7 @@ def test_reached_but_open_goal_is_never_readmitted():
 
 def test_robot_that_stops_moving_backs_out_along_its_trail_before_stuck():
     grid = grid_of(corridor())
-    params = ExplorationParams(planner_reachable=False, max_backouts=2, backout_distance=1.5)
+    params = ExplorationParams(explorer="dwfe", planner_reachable=False, max_backouts=2, backout_distance=1.5)
     ex = Explorer(params, start_time=0.0, max_consecutive_failures=5)
     t = 0.0
     for x in np.arange(1.0, 6.01, 0.1):  # it drove east along the corridor
@@ -95,7 +96,7 @@ def test_robot_that_stops_moving_backs_out_along_its_trail_before_stuck():
 
 def test_backout_that_frees_the_robot_resets_the_streak():
     grid = grid_of(corridor())
-    ex = Explorer(ExplorationParams(planner_reachable=False), start_time=0.0)
+    ex = Explorer(ExplorationParams(explorer="dwfe", planner_reachable=False), start_time=0.0)
     for x in np.arange(1.0, 6.01, 0.1):
         ex.observe((float(x), 1.25), 0.0)
     here, t = (6.0, 1.25), 0.0
@@ -112,7 +113,7 @@ def test_backout_that_frees_the_robot_resets_the_streak():
 
 def test_progress_guard_ends_an_exploration_that_maps_nothing():
     grid = grid_of(corridor(30.0))  # ~19 alcoves: goals outlast the guard
-    params = ExplorationParams(planner_reachable=False, no_progress_time=120.0, min_progress_area=2.0)
+    params = ExplorationParams(explorer="dwfe", planner_reachable=False, no_progress_time=120.0, min_progress_area=2.0)
     ex = Explorer(params, start_time=0.0)
     t = 0.0
     for i in range(100):
@@ -135,10 +136,10 @@ def test_frontier_behind_a_gap_narrower_than_the_robot_is_never_chosen_and_is_re
     data[36:44, 80:82] = FREE
     grid = grid_of(data)
     robot = (1.0, 2.0)
-    naive = Explorer(ExplorationParams(planner_reachable=False), 0.0)
+    naive = Explorer(ExplorationParams(explorer="dwfe", planner_reachable=False), 0.0)
     naive.next_goal(grid, robot, 0.0)
     assert len(naive.frontiers) == 2  # explore_lite's free-cell reachability counts the gap's frontier
-    ex = Explorer(ExplorationParams(), 0.0, planner=PlannerParams())
+    ex = Explorer(ExplorationParams(explorer="dwfe"), 0.0, planner=PlannerParams())
     first = ex.next_goal(grid, robot, 0.0)
     assert first.xy[0] < 1.5 and first.xy[1] > 2.5  # the corner
     assert len(ex.frontiers) == 1 and len(ex.unreachable) == 1

@@ -126,7 +126,8 @@ def test_a_build_killed_at_random_moments_leaves_old_or_new_never_mixed(built, t
     for attempt in range(5):
         site = copy_site(built, tmp_path / f"site{attempt}")
         proc = subprocess.Popen(bomc_command("build", "--world", str(LAB_B), "--site", str(site), "--quiet",
-                                             "--max-time", "200", "--seed", str(attempt)),
+                                             "--max-time", "200", "--seed", str(attempt),
+                                             "--explorer", "dwfe"),  # the slower explorer: kills land mid-build
                                 env=bomc_env(), cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         deadline = time.monotonic() + 60
         while not (site / "generations" / "2.partial").exists() and proc.poll() is None:

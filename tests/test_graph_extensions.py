@@ -176,3 +176,20 @@ def test_a_sessions_first_near_match_starts_the_footprint_over():
     assert np.allclose(g.nodes[0].footprint, [-0.3, -0.4, 0.9, 0.4])
     g.associate([boxed("table", -0.3, -0.5, 0.8, 0.4)], [0], 2, 2.0)  # later views of the session add up
     assert np.allclose(g.nodes[0].footprint, [-0.3, -0.5, 0.9, 0.4])
+
+
+def test_chairs_side_by_side_at_a_table_stay_two_nodes():
+    """Two 0.5 m chairs 0.8 m apart at a table; each is often seen only in part (its inner
+    half, the rest hidden), and such a view's centre lies within delta_c (0.7 m) of the
+    other chair. The view's floor lies clear of the other chair's footprint: two chairs
+    stay two, in place, and neither footprint grows over the other."""
+    g = ObjectGraph(AssociationParams(confirm_detections=1, separate_neighbours=True))
+    g.associate([boxed("chair", -0.65, -0.25, -0.15, 0.25)], [], 1, 0.0)  # chair A, whole, at -0.4
+    for k in range(6):
+        g.associate([boxed("chair", 0.1, -0.25, 0.4, 0.25)], [], 1, 1.0 + 2 * k)  # B's inner half
+        g.associate([boxed("chair", 0.15, -0.25, 0.65, 0.25)], [], 1, 1.5 + 2 * k)  # B whole, at +0.4
+        g.associate([boxed("chair", -0.4, -0.25, -0.1, 0.25)], [], 1, 2.0 + 2 * k)  # A's inner half
+    chairs = sorted(g.nodes.values(), key=lambda v: v.position[0])
+    assert len(chairs) == 2
+    assert chairs[0].position[0] < -0.2 and chairs[1].position[0] > 0.2
+    assert all(v.footprint[2] - v.footprint[0] < 0.7 for v in chairs)

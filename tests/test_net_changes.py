@@ -18,8 +18,12 @@ def d07(_category: str) -> float:
     return 0.7
 
 
-def ev(kind: str, i: int, x: float, session: int = 2, stamp: float = 10.0, cat: str = "chair", **kw) -> Event:
-    return Event(kind, i, cat, np.array([x, 0.0, 0.4]), session, stamp, **kw)
+def ev(kind: str, i: int, x: float, session: int = 2, stamp: float = 10.0, cat: str = "chair",
+       misses: int | None = None, last_seen: float | None = None, merged_into: int | None = None) -> Event:
+    event = Event(kind, i, cat, np.array([x, 0.0, 0.4]), session, stamp)
+    if misses is not None:
+        event.removal_evidence(misses, merged_into is not None, last_seen, merged_into)
+    return event
 
 
 def kinds(changes: list[NetChange]) -> list[tuple[str, int]]:
@@ -82,7 +86,7 @@ def test_the_graph_writes_the_evidence_and_the_store_keeps_it(tmp_path):
 def test_a_version_2_store_is_read_as_it_is_and_upgraded_by_a_writer(tmp_path):
     path = tmp_path / "site.db"
     con = sqlite3.connect(path)  # the history as version 2 wrote it: no evidence columns
-    con.executescript(store_module._SCHEMA.replace(", misses INTEGER, seen REAL, merged_into INTEGER", ""))
+    con.executescript(store_module._SCHEMA.replace(", detail TEXT", ""))
     con.execute("INSERT INTO schema_version VALUES (2)")
     con.execute("INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence)"
                 " VALUES (0, 1, 1.0, 'removed', 'chair', 1, 2, 0.4, 0.9)")

@@ -214,6 +214,8 @@ def test_the_command_writes_a_world_and_refuses_to_overwrite_it(tmp_path, capsys
     (["--resolution", "0"], "--resolution"),
     (["--seed", "-3"], "--seed"),
     (["--seed", "x"], "--seed"),
+    (["--corridor-chairs", "-1"], "--corridor-chairs"),
+    (["--static", "--corridor-chairs", "2"], "--corridor-chairs"),
 ])
 def test_bad_values_exit_2_with_one_line_naming_the_option(tmp_path, capsys, extra, named):
     try:
@@ -224,3 +226,30 @@ def test_bad_values_exit_2_with_one_line_naming_the_option(tmp_path, capsys, ext
     assert rc == 2
     assert named in err[-1] and "Traceback" not in "\n".join(err)
     assert not (tmp_path / "w.yaml").exists()
+
+
+def test_a_chair_left_in_a_corridor_stands_in_the_middle_with_a_way_past_on_both_sides(tmp_path):
+    """``--corridor-chairs 2``: sessions 2 and 4 each move a chair from a room to the middle
+    of a corridor segment, where it stays; the robot can still pass it and reach everything
+    (issue 15 item 6 is reproduced with such worlds). Without the option nothing changes."""
+    params = OfficeParams(width=30, height=20, seed=7, sessions=4, churn=0.15, corridor_chair_every=2)
+    world = generate_office(params, tmp_path / "chairs.yaml")
+    draft = draft_office(params)
+    left = draft.timeline.corridor_chairs
+    assert sorted(left) == [2, 4]
+    corridors = [c.rect for c in draft.plan.corridors]
+    for k, name in left.items():
+        x, y = world.sessions[k].move[name][:2]
+        rect = next(r for r in corridors if r.x0 <= x <= r.x1 and r.y0 <= y <= r.y1)
+        vertical = rect.height > rect.width
+        mid = (rect.x0 + rect.x1) / 2 if vertical else (rect.y0 + rect.y1) / 2
+        assert abs((x if vertical else y) - mid) < 0.01  # in the middle, across
+        for later in range(k, 5):  # it stays there
+            assert world.objects_in_session(later)[name].position[:2] == pytest.approx((x, y))
+        objects = world.objects_in_session(4)
+        reach = _reachable(Scene(world, objects, world.obstacles_in_session(4)), (world.start.x, world.start.y))
+        half = objects[name].size[0] / 2 + RADIUS + 0.15  # beside the chair, on either side
+        sides = [(x - half, y), (x + half, y)] if vertical else [(x, y - half), (x, y + half)]
+        assert all(_at(world.grid, reach, px, py) for px, py in sides), f"session {k}: no way past {name}"
+    plain = OfficeParams(width=30, height=20, seed=7, sessions=4, churn=0.15)
+    assert not draft_office(plain).timeline.corridor_chairs

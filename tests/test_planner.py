@@ -142,3 +142,16 @@ def test_bad_parameters_are_rejected():
         PlannerParams(robot_radius=0.8, inflation_radius=0.5)
     with pytest.raises(ValueError):
         PlannerParams(heuristic_weight=0.5)
+
+
+def test_a_grid_edited_in_place_is_planned_on_as_it_is_now():
+    """Clearance is computed once per map snapshot and shared; a grid whose cells were
+    changed in place must not be planned on with the clearance of its old cells."""
+    data = room(8.0, 4.0)
+    g = grid(data)
+    before = GridPlanner(g).plan((1.0, 2.0), (7.0, 2.0))
+    assert before is not None
+    block(data, 3.9, 4.1, 0.0, 4.0)  # a wall across the whole room, written into g.data
+    assert GridPlanner(g).plan((1.0, 2.0), (7.0, 2.0)) is None
+    data[:, :] = room(8.0, 4.0)
+    assert np.array_equal(GridPlanner(g).plan((1.0, 2.0), (7.0, 2.0)), before)

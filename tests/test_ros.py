@@ -550,3 +550,27 @@ def test_cli_world_is_required_without_ros_and_refused_with_it(tmp_path, capsys)
     with pytest.raises(SystemExit) as exc:
         bomc(["monitor", "--ros", "--world", str(WORLD), "--site", str(tmp_path / "a"), "--session", "1"])
     assert exc.value.code == 2 and "with --ros the robot is the world" in capsys.readouterr().err
+
+
+def test_clear_costmaps_calls_move_base_s_service(bridge):
+    """A pass that keeps failing waypoints clears move_base's obstacle layer (bomc_bt.stuck):
+    the robot port's clear_costmaps is move_base's std_srvs/Empty service, which the
+    sim-over-ROS bridge serves by clearing the simulator's obstacle layer."""
+    import rospy
+    from std_srvs.srv import Empty
+
+    bridge("--mode", "build")
+    robot = _robot("build")
+    try:
+        _settle(robot)
+        name = robot.params.clear_costmaps_service
+        assert name == "/move_base/clear_costmaps"
+        before = robot.counts["services"]
+        robot.clear_costmaps()
+        assert robot.counts["services"] == before + 1  # called in the background, never blocking a tick
+        rospy.wait_for_service(name, timeout=5.0)
+        rospy.ServiceProxy(name, Empty)()  # served: an Empty answer, no exception
+        handle = robot.navigate(Pose2D(6.0, 6.5, 0.0))  # and the robot drives on after the clears
+        assert _until_done(robot, handle) is Status.SUCCEEDED
+    finally:
+        robot.close()

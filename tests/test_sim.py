@@ -117,6 +117,28 @@ def test_mapper_marks_seen_walls_occupied_and_the_room_free():
     assert m.free_mask()[interior].mean() > 0.98
 
 
+
+def test_mapper_map_follows_the_log_odds_and_earlier_maps_stay_as_they_were():
+    """The map is re-thresholded only where a scan landed; it must still equal thresholding
+    every cell, and a map handed out before a scan must not change under its holder."""
+    world = make_world(room_data(6.0, 4.0), Pose2D(3.0, 2.0, 0.0))
+    scene = Scene(world, {}, [])
+    lidar = Lidar(LidarParams(fov_deg=220.0, beams=300, range_max=3.0))
+    mapper = Mapper.like(world.grid)
+    rng = np.random.default_rng(5)
+    held = []
+    for k in range(12):
+        pose = Pose2D(float(rng.uniform(1.0, 5.0)), float(rng.uniform(1.0, 3.0)), float(rng.uniform(-3, 3)))
+        mapper.integrate(lidar.scan(pose, scene.lidar_field, float(k), rng), pose)
+        m = mapper.grid()
+        p = mapper.params
+        expected = np.where(mapper.log_odds < p.free_threshold, FREE,
+                            np.where(mapper.log_odds > p.occupied_threshold, OCCUPIED, -1))
+        assert np.array_equal(m.data, expected)
+        held.append((m, m.data.copy()))
+    assert all(np.array_equal(m.data, copy) for m, copy in held)
+    assert not np.array_equal(held[0][1], held[-1][1])  # later scans did change the map
+
 def test_obstacle_layer_marks_what_it_sees_and_clears_it_when_gone():
     world = make_world(room_data(8.0, 4.0), Pose2D(1.0, 2.0, 0.0))
     box = Obstacle((3.0, 2.0), (0.4, 0.4), 1.0)
@@ -325,3 +347,22 @@ def test_frames_come_at_the_camera_rate_only_when_localized():
     first = cam.calls[0]
     assert first["reported"] != first["true"] and first["reported"].distance_to(first["true"]) < 0.2
     assert SimRobot(world, 1, seed=0).frame() is None  # no camera, no frames
+
+
+def test_clear_costmaps_empties_the_obstacle_layer_and_the_lidar_refills_it():
+    """The robot port's clear_costmaps (a pass that keeps failing waypoints, bomc_bt.stuck):
+    the obstacle layer forgets what earlier scans marked and the next scans mark again
+    what is still there."""
+    world = ring_world([Obstacle((3.0, 0.95), (0.6, 1.8), 1.0)])
+    robot = SimRobot(world, 2, seed=0, mode="monitor")
+    localize(robot, world.grid, world.start)
+    for _ in range(10):
+        robot.step()
+    layer = robot.planners.obstacles
+    marked = int(layer.mask.sum())
+    assert marked > 0
+    robot.clear_costmaps()
+    assert not layer.mask.any()
+    robot.step()
+    robot.step()
+    assert layer.mask.sum() >= 0.5 * marked  # the obstacle is still there: the lidar marks it again

@@ -380,7 +380,7 @@ def error_for(tmp_path: Path, text: str, name: str = "bad.yaml") -> str:
         ),
         ("root: {retry: {num_failures: 0}, child: {behaviour: Counter}}", "root.retry", "at least 1"),
         ("root: {retry: {}, child: {behaviour: Counter}}", "root.retry.num_failures", "missing"),
-        ("root: {timeout: {duration: -1}, child: {behaviour: Counter}}", "root.timeout", "negative"),
+        ("root: {timeout: {duration: -1}, child: {behaviour: Counter}}", "root.timeout.duration", "negative"),
         ("root: {parallel: P, children: [{behaviour: Counter}]}", "root.policy", "success_on_all"),
         (
             "root: {parallel: P, policy: success_on_selected, selected: [No],"

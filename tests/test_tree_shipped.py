@@ -75,9 +75,15 @@ def test_the_monitor_tree_reads_like_the_papers_figure(tmp_path):
     positions = [names.index(n) for n in order]
     assert positions == sorted(positions)
     ports = tree_ports(root)
-    assert set(ports["/goal"]["writes"]) == {"Next Waypoint", "Find Detour"}
+    assert set(ports["/goal"]["writes"]) == {"Next Waypoint", "Find Detour", "Way Back"}  # Way Back: a back-out
     assert set(ports["/nav_detour"]["reads"]) == {"Mark Visited", "Mark Detoured", "Mark Missed"}
-    assert ports["/localized"]["writes"] == ["Relocalize Local", "Relocalize Global"]
+    assert ports["/localized"]["writes"][:2] == ["Relocalize Local", "Relocalize Global"]
+    assert set(ports["/localized"]["writes"][2:]) == {"Relocalize Where It Is", "Relocalize Globally"}
+    # after each waypoint the loop checks that the pass still gets somewhere (trees/recover.yaml)
+    recovery = ["Reach Waypoint", "Keep Going", "Making Progress", "Find Out Why", "Act On It", "End Pass Early"]
+    positions = [names.index(n) for n in recovery]
+    assert positions == sorted(positions)
+    assert set(ports["/stuck_cause"]["writes"]) == {"Find Out Why"}  # one per visit loop
 
 
 def test_a_tree_param_that_is_a_config_value_is_refused(tmp_path):

@@ -413,7 +413,7 @@ def test_small_drift_and_a_flicker_are_no_change(tmp_path):
         store.record([Event("added", 1, "chair", np.zeros(3), 1, 1.0)], [chair])
         store.end_session(1, "succeeded", {"stamp": 2.0})
         store.begin_session(2, {"stamp": 0.0})
-        store.record([Event("removed", 1, "chair", np.zeros(3), 2, 1.0, misses=3),
+        store.record([Event("removed", 1, "chair", np.zeros(3), 2, 1.0, detail={"misses": 3}),
                       Event("moved", 1, "chair", np.array([0.2, 0, 0]), 2, 3.0, np.zeros(3))], [chair])
         store.end_session(2, "succeeded", {"stamp": 4.0})
     d = SiteView(tmp_path).diff(1, 2)
@@ -511,7 +511,7 @@ def test_a_page_reconnects_to_a_restarted_server_and_gets_the_full_state(browser
     browser.open(first.url)
     browser.wait_for(f"{status_of('Old Root')} === 'running'")
     first.close()
-    browser.wait_for("document.body.dataset.connected === 'no'", what="the page to notice")
+    browser.wait_for("document.body.dataset.connected !== 'yes'", what="the page to notice")
     second = StateStore()
     second.update({"mode": "live", "tree": {"name": "New Root", "kind": "sequence", "type": "Sequence",
                                             "status": "success", "feedback": "", "children": []}})

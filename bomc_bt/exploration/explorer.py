@@ -28,11 +28,14 @@ import numpy as np
 
 from bomc_bt.exploration.blacklist import Blacklist
 from bomc_bt.exploration.dwfe import Choice, ExplorationParams, choose_frontier
-from bomc_bt.exploration.frontiers import Frontier, find_frontiers
-from bomc_bt.exploration.progress import AreaWatch, Trail
+from bomc_bt.exploration.frontiers import Frontier, find_frontiers, touches_unknown
+from bomc_bt.exploration.gain import Standoffs, visible_unknown
+from bomc_bt.exploration.gain_choice import Candidate, choose_by_gain
+from bomc_bt.exploration.progress import AreaWatch
 from bomc_bt.exploration.reachability import Reachability
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.planner import PlannerParams
+from bomc_bt.trail import Trail
 
 EXPLORING = "exploring"
 DONE = "done"
@@ -50,6 +53,12 @@ class Goal:
     window: str
     chosen_at: float
     backout: bool = False
+    anchor: tuple[float, float] | None = None  # the frontier cell the goal looks at (default: xy)
+
+    @property
+    def looks_at(self) -> tuple[float, float]:
+        """Where the frontier this goal serves is: its anchor, else the goal itself."""
+        return self.anchor if self.anchor is not None else self.xy
 
 
 class Explorer:
@@ -70,6 +79,8 @@ class Explorer:
         self.clearance = clearance
         self.min_goal_distance = min_goal_distance
         self.planner = planner if params.planner_reachable else None
+        # The gain explorer ranks by path length on the planner's grid: it always needs one.
+        self.gain_planner = planner or PlannerParams()
         self.blacklist = Blacklist.for_params(params)
         self.status = EXPLORING
         self.reason = ""
@@ -81,6 +92,7 @@ class Explorer:
         self._streak_start: tuple[float, float] | None = None
         self._streak_backouts = 0
         self._backout_due = False
+        self._last_anchor: tuple[float, float] | None = None
         self.frontiers: list[Frontier] = []
         self.unreachable: list[Frontier] = []
         self.area = AreaWatch(params.no_progress_time, params.min_progress_area, start_time)
@@ -112,7 +124,9 @@ class Explorer:
         self.observe(robot_xy, now, grid.free_area())
         if self.limit_reached(now):
             return None
-        reach = Reachability(grid, self.planner, robot_xy) if self.planner is not None else None
+        gain = self.params.explorer == "gain"
+        planner = self.gain_planner if gain else self.planner
+        reach = Reachability(grid, planner, robot_xy) if planner is not None else None
         if self._backout_due:
             self._backout_due = False
             goal = self._backout(robot_xy, now, reach)
@@ -120,30 +134,46 @@ class Explorer:
                 return goal
         self.blacklist.readmit(grid, robot_xy)
         candidates = self._candidates(grid, robot_xy, reach)
-        targets = {id(f): xy for f, xy in candidates}
         # A frontier whose best target is where the robot already stands (the blind sector
         # behind a 220-degree lidar) is mapped by the turn towards any other goal.
-        far = [f for f, xy in candidates if math.dist(xy, robot_xy) >= self.min_goal_distance]
-        choice = choose_frontier(far, robot_xy, self.params, self.blacklist)
+        far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance]
+        if gain:
+            choice, best = choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist,
+                                          self._last_anchor)
+        else:
+            choice = choose_frontier([c.frontier for c in far], robot_xy, self.params, self.blacklist)
+            best = next((c for c in far if c.frontier is choice.frontier), None)
         self.last_choice = choice
-        if choice.frontier is None:
+        if best is None:
             unreachable = f"; {len(self.unreachable)} more the planner cannot reach" if self.unreachable else ""
             return self._finish(DONE, (choice.reason or "no frontiers left") + unreachable)
         self.goals += 1
-        return Goal(targets[id(choice.frontier)], choice.frontier, choice.window, now)
+        self._last_anchor = best.anchor
+        return Goal(best.goal, best.frontier, choice.window, now, anchor=best.anchor)
 
     def _candidates(self, grid: OccupancyGrid, robot_xy: tuple[float, float],
-                    reach: Reachability | None) -> list[tuple[Frontier, tuple[float, float]]]:
+                    reach: Reachability | None) -> list[Candidate]:
         """Frontiers the robot can be driven to, each with its goal point; sets
-        :attr:`frontiers` (those) and :attr:`unreachable` (the rest)."""
+        :attr:`frontiers` (those) and :attr:`unreachable` (the rest).
+
+        With the planner's reachable area known, the goal is a safe standoff
+        (:class:`.gain.Standoffs`); a frontier with none within ``max_standoff`` (a narrow
+        passage) falls back to its own cell nearest the centroid that the robot fits on.
+        """
         found = find_frontiers(grid, robot_xy, min_size=self.params.min_size_cells(grid.resolution))
         distance = obstacle_distance(grid)
         if reach is None:
             self.frontiers, self.unreachable = found, []
-            return [(f, frontier_target(grid, f, distance, self.clearance)) for f in found]
+            return [_plain(f, frontier_target(grid, f, distance, self.clearance)) for f in found]
         reachable, self.unreachable = reach.split(found)
         self.frontiers = [f for f, _ in reachable]
-        return [(f, frontier_target(grid, f, distance, self.clearance, ok)) for f, ok in reachable]
+        standoffs = Standoffs(grid, reach, self.clearance, self.params.max_standoff)
+        out = []
+        for f, ok in reachable:
+            safe = standoffs.goal(f)
+            out.append(Candidate(f, *safe) if safe is not None
+                       else _plain(f, frontier_target(grid, f, distance, self.clearance, ok)))
+        return out
 
     def _backout(self, robot_xy, now: float, reach: Reachability | None) -> Goal | None:
         accept = reach.contains if reach is not None else None
@@ -200,20 +230,27 @@ class Explorer:
                                 f"{self._streak_backouts} back-out(s) (last: {why})")
 
     def border(self, grid: OccupancyGrid, robot_xy: tuple[float, float] | None) -> dict:
-        """The unknown border left: frontier count and length, reachable and not, and how
-        many of the reachable ones are blacklisted (the build record's ``frontiers_left``)."""
+        """The unknown border left: frontier count and length, reachable and not, how many
+        of the reachable ones are blacklisted and, for the gain explorer, how many of the
+        others would add less than ``min_gain`` (the build record's ``frontiers_left``)."""
         if robot_xy is None:
             return {}
-        found = find_frontiers(grid, robot_xy, min_size=self.params.min_size_cells(grid.resolution))
-        if self.planner is not None:
-            reachable, unreachable = Reachability(grid, self.planner, robot_xy).split(found)
-            reach = [f for f, _ in reachable]
-        else:
-            reach, unreachable = found, []
-        skipped = len(reach) - len(self.blacklist.filter(reach))
-        return {"reachable": len(reach), "reachable_m": round(sum(f.length for f in reach), 2),
-                "unreachable": len(unreachable), "unreachable_m": round(sum(f.length for f in unreachable), 2),
-                "blacklisted": skipped, "readmitted": self.blacklist.readmitted}
+        gain = self.params.explorer == "gain"
+        planner = self.gain_planner if gain else self.planner
+        reach = Reachability(grid, planner, robot_xy) if planner is not None else None
+        candidates = self._candidates(grid, robot_xy, reach)
+        found = [c.frontier for c in candidates]
+        allowed = {id(f) for f in self.blacklist.filter(found)}
+        out = {"reachable": len(found), "reachable_m": round(sum(f.length for f in found), 2),
+               "unreachable": len(self.unreachable),
+               "unreachable_m": round(sum(f.length for f in self.unreachable), 2),
+               "blacklisted": len(found) - len(allowed), "readmitted": self.blacklist.readmitted}
+        if gain:
+            gains = visible_unknown(grid, [c.goal for c in candidates if id(c.frontier) in allowed],
+                                    self.params.gain_radius)
+            out["below_min_gain"] = int(np.count_nonzero(gains < self.params.min_gain))
+            out["best_gain_m2"] = round(float(gains.max()), 2) if len(gains) else 0.0
+        return out
 
     def _blacklist(self, goal: Goal, grid: OccupancyGrid | None, robot_xy, permanent: bool = False) -> None:
         # The target and the frontier's centroid: the blacklist matches frontiers by their
@@ -224,6 +261,10 @@ class Explorer:
         self.status = status
         self.reason = reason
         return None
+
+
+def _plain(frontier: Frontier, xy: tuple[float, float]) -> Candidate:
+    return Candidate(frontier, xy, xy)
 
 
 def obstacle_distance(grid: OccupancyGrid) -> np.ndarray:
@@ -280,11 +321,18 @@ def standoff(grid: OccupancyGrid, distance: np.ndarray, row: int, col: int, clea
     return float(x), float(y)
 
 
-def still_open(grid: OccupancyGrid, xy: tuple[float, float], radius: float, min_unknown: int) -> bool:
-    """Whether unknown space still borders ``xy``: once it is mapped, drive elsewhere."""
+def still_open(grid: OccupancyGrid, xy: tuple[float, float], radius: float, min_cells: int) -> bool:
+    """Whether the frontier at ``xy`` is still there: at least ``min_cells`` frontier cells
+    (free cells with an unknown 4-neighbour) within ``radius``; once it is mapped, drive elsewhere.
+
+    Counting frontier cells, not unknown cells: the unknown inside a wall or behind a
+    cabinet next to a frontier that the lidar closed stays unknown for good, and counting
+    it kept mapped goals "open" (they were then driven to, and failed or were blacklisted).
+    """
     r = int(math.ceil(radius / grid.resolution))
     row, col = grid.world_to_cell(xy[0], xy[1])
-    r0, r1 = max(0, int(row) - r), min(grid.height, int(row) + r + 1)
-    c0, c1 = max(0, int(col) - r), min(grid.width, int(col) + r + 1)
+    r0, r1 = max(0, int(row) - r - 1), min(grid.height, int(row) + r + 2)
+    c0, c1 = max(0, int(col) - r - 1), min(grid.width, int(col) + r + 2)
     window = grid.data[r0:r1, c0:c1]
-    return int(np.count_nonzero(window < 0)) >= min_unknown
+    cells = (window == 0) & touches_unknown(window < 0)
+    return int(np.count_nonzero(cells[1:-1, 1:-1])) >= min_cells

@@ -127,7 +127,7 @@ def find_frontiers(grid: OccupancyGrid, robot_xy: tuple[float, float], min_size:
     # One cell of margin so the unknown neighbours of the region's border are seen.
     m0, m1 = max(r0 - 1, 0), min(r1 + 1, grid.height)
     n0, n1 = max(c0 - 1, 0), min(c1 + 1, grid.width)
-    touches = _touches_unknown(grid.data[m0:m1, n0:n1] < 0)[r0 - m0:r1 - m0, c0 - n0:c1 - n0]
+    touches = touches_unknown(grid.data[m0:m1, n0:n1] < 0)[r0 - m0:r1 - m0, c0 - n0:c1 - n0]
     mask = region & touches
     return _clusters(grid, mask, (r0, c0), robot_xy, min_size)
 
@@ -143,7 +143,7 @@ def _reachable_region(free: np.ndarray, start: tuple[int, int]) -> tuple[np.ndar
     return region, (y, x)
 
 
-def _touches_unknown(unknown: np.ndarray) -> np.ndarray:
+def touches_unknown(unknown: np.ndarray) -> np.ndarray:
     """Cells with an unknown 4-neighbour (cells beyond the array edge are not unknown)."""
     out = np.zeros_like(unknown)
     out[1:, :] |= unknown[:-1, :]

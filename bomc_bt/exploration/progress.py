@@ -5,14 +5,13 @@ mapped less than ``min_area`` new square metres for ``window`` seconds of robot 
 not going to finish by itself. It also keeps the (time, area) steps, so a build record can
 say when 99 % of the final area was mapped.
 
-:class:`Trail` keeps the last stretch of the robot's path: a robot that stops making
-progress backs out along it (the way it came is the one place it is known to fit).
+:class:`bomc_bt.trail.Trail` (shared with the monitor pass) keeps the last stretch of the
+robot's path: a robot that stops making progress backs out along it.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 
 
 class AreaWatch:
@@ -43,27 +42,3 @@ class AreaWatch:
             return None
         target = fraction * self.steps[-1][1]
         return next(t for t, a in self.steps if a >= target)
-
-
-class Trail:
-    """The robot's recent positions, at least ``spacing`` metres apart, newest last."""
-
-    def __init__(self, spacing: float = 0.25, keep: int = 400):
-        self.spacing = spacing
-        self.points: deque[tuple[float, float]] = deque(maxlen=keep)
-
-    def add(self, xy: tuple[float, float]) -> None:
-        p = (float(xy[0]), float(xy[1]))
-        if not self.points or math.dist(self.points[-1], p) >= self.spacing:
-            self.points.append(p)
-
-    def back(self, robot_xy: tuple[float, float], distance: float, accept=None) -> tuple[float, float] | None:
-        """The first point at least ``distance`` metres back along the trail (and at least
-        ``distance / 2`` from the robot) that ``accept`` allows, else None."""
-        walked, prev = 0.0, (float(robot_xy[0]), float(robot_xy[1]))
-        for p in reversed(self.points):
-            walked += math.dist(prev, p)
-            prev = p
-            if walked >= distance and math.dist(p, robot_xy) >= distance / 2 and (accept is None or accept(p)):
-                return p
-        return None

@@ -7,7 +7,7 @@ grid and treats unknown cells as walls. Frontiers behind a gap narrower than the
 (chair legs, a half-seen doorway) were chosen, failed, and were blacklisted: the first
 cause ranked in ``docs/exploration.md`` (4.1). This module computes the planner's
 traversable component containing the robot, with the same costmap code the planner uses
-(:func:`bomc_bt.costmap.clearance_fields`), and says which frontier cells the robot can
+(:func:`bomc_bt.costmap.grid_clearance`), and says which frontier cells the robot can
 be driven to: those within the planner's goal tolerance of that component.
 """
 
@@ -18,7 +18,7 @@ import math
 import cv2
 import numpy as np
 
-from bomc_bt.costmap import clearance_fields
+from bomc_bt.costmap import grid_clearance
 from bomc_bt.exploration.frontiers import Frontier
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.planner import PlannerParams
@@ -31,8 +31,7 @@ class Reachability:
         self.grid = grid
         self.factor = max(1, int(round(params.resolution / grid.resolution)))
         res = grid.resolution * self.factor
-        clearance, unknown = clearance_fields(grid.occupied_mask(), grid.unknown_mask(), grid.resolution,
-                                              self.factor)
+        clearance, unknown = grid_clearance(grid, self.factor)
         lethal = clearance < params.robot_radius
         if not params.allow_unknown:
             lethal |= unknown

@@ -26,6 +26,8 @@ The parts, one job each:
 * :mod:`~bomc_bt.graph.footprints` and :mod:`~bomc_bt.graph.extents` -- floor boxes and how
   big each node's object has shown itself;
 * :mod:`~bomc_bt.graph.tentative` -- first sightings awaiting confirmation;
+* :mod:`~bomc_bt.graph.operator_edits` -- the operator's corrections that both modes
+  respect (a relabelled node keeps its label, a deleted one stays out);
 * :mod:`~bomc_bt.graph.reference` -- the naive linear-scan paper, the test oracle and the
   benchmark baseline.
 """
@@ -34,13 +36,22 @@ from bomc_bt.graph.association import AssociationPolicy
 from bomc_bt.graph.geometry import points_in_polygon
 from bomc_bt.graph.object_graph import ObjectGraph, make_policy
 from bomc_bt.graph.paper import PaperPolicy
-from bomc_bt.graph.records import EVENT_KINDS, PRESENT, REMOVED, AssociationParams, Event, Node, Observation
+from bomc_bt.graph.records import (
+    EVENT_KINDS,
+    OPERATOR_KINDS,
+    PRESENT,
+    REMOVED,
+    AssociationParams,
+    Event,
+    Node,
+    Observation,
+)
 from bomc_bt.graph.reference import associate_linear_scan, nodes_in_polygon_linear
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.spatial import SpatialIndex
 
 __all__ = [
-    "EVENT_KINDS", "PRESENT", "REMOVED", "AssociationParams", "AssociationPolicy", "Event", "Node", "ObjectGraph",
-    "Observation", "PaperPolicy", "RobustPolicy", "SpatialIndex", "associate_linear_scan", "make_policy",
+    "EVENT_KINDS", "OPERATOR_KINDS", "PRESENT", "REMOVED", "AssociationParams", "AssociationPolicy", "Event", "Node",
+    "ObjectGraph", "Observation", "PaperPolicy", "RobustPolicy", "SpatialIndex", "associate_linear_scan", "make_policy",
     "nodes_in_polygon_linear", "points_in_polygon",
 ]

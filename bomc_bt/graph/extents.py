@@ -21,12 +21,27 @@ if TYPE_CHECKING:
     from bomc_bt.graph.object_graph import ObjectGraph
 
 
+# m: a footprint longer than delta_c by this much on a side is a big object's (a table's),
+# not a small one seen with noise (a chair's box is about delta_c long when seen corner-on)
+BIG_MARGIN = 2.0 * NOISE_PAD
+
+
 class NodeExtents:
-    """The size-aware parts of robust association: node gates and footprints."""
+    """The size-aware parts of robust association: node gates and footprints.
+
+    A footprint is the union of views of *one* object, so it never grows longer than the
+    longest single view of that object showed (plus the noise pad): two chairs 0.8 m apart
+    at a table, each seen alone with its mask bleeding towards the other, once made one
+    "chair" footprint 1.5 m long that then counted as big and swallowed every chair around
+    the table (Environment A: 31 of 82 chair nodes, chair recall 0.65). Opt-in
+    (``separate_neighbours``): a small object's view whose box lies clear of the node's
+    footprint is another object, however near.
+    """
 
     def __init__(self, params: AssociationParams):
         self.params = params
         self.boxes = params.footprint_overlap > 0.0  # footprints take part in association
+        self._longest_view: dict[int, float] = {}  # node id: longest side of one view's box
 
     def reach(self, o: Observation) -> float:
         """How far from ``o`` a node whose size makes it the same object may lie."""
@@ -38,9 +53,21 @@ class NodeExtents:
     def is_big(self, v: Node) -> bool:
         """Whether the node's footprint is longer than delta_c on a side: a table, not a cup."""
         fp = v.footprint
-        return self.boxes and fp is not None and max(fp[2] - fp[0], fp[3] - fp[1]) > self.params.distance(v.category)
+        return self.boxes and fp is not None and _side(fp) > self.params.distance(v.category) + BIG_MARGIN
 
-    def grow(self, graph: ObjectGraph, v: Node, o: Observation, gate: float, restart: bool = False) -> None:
+    def separate(self, v: Node, o: Observation) -> bool:
+        """With ``separate_neighbours`` (opt-in): whether ``o`` is plainly not ``v``'s object:
+        ``v`` is small and the floor the view covers lies clear of the floor ``v``'s object
+        covered (farther than the noise pad). A view of a part of an object lies on its
+        footprint; one beside it is a neighbour -- except that two partial views of one
+        object's two ends can lie apart too (lab-b's cabinet was doubled), hence opt-in."""
+        fp = v.footprint
+        if not self.boxes or fp is None or o.box is None or not self.params.separate_neighbours or self.is_big(v):
+            return False
+        return box_gap(fp, o.box) > NOISE_PAD
+
+    def grow(self, graph: ObjectGraph, v: Node, o: Observation, gate: float, restart: bool = False,
+             extend: bool = False) -> None:
         """Remember how big this node's object has shown itself: its widest spread (the
         ``gate`` that ``o`` earns) and the floor area its points covered (the footprint,
         union of boxes).
@@ -57,13 +84,20 @@ class NodeExtents:
         shrinking it to that end would make a duplicate of the other end when it comes into
         view. A far first match keeps the old footprint for the session. (Restarting at the
         first *boxed* view instead shrank tables to partial views and let a sliver become a
-        duplicate again: office-s perfect session 3, 0.984 -> 0.977.)
+        duplicate again: office-s perfect session 3, 0.984 -> 0.977.) A union longer than the
+        longest single view (plus ``BIG_MARGIN``) is two objects, and is not made, unless
+        ``extend``: a truncated view of a big node's hidden end (:meth:`touched_node`).
         """
         graph.widen_gate(v, gate)
         if self.boxes and o.box is not None:
             if restart and v.footprint is not None and inside(o.box, v.footprint, NOISE_PAD):
                 restart = False
-            graph.set_footprint(v, o.box.copy() if restart else union(v.footprint, o.box))
+            longest = max(self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0),
+                          _side(o.box))
+            self._longest_view[v.id] = longest
+            grown = o.box.copy() if restart else union(v.footprint, o.box)
+            if restart or extend or _side(grown) <= longest + BIG_MARGIN:
+                graph.set_footprint(v, grown)
 
     def touched_node(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """The big same-category node whose footprint a truncated view lies against, if any.
@@ -88,7 +122,8 @@ class NodeExtents:
         if len(ids) == 0:
             return None
         with np.errstate(invalid="ignore"):
-            big = np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]) > self.params.distance(o.category)
+            big = (np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1])
+                   > self.params.distance(o.category) + BIG_MARGIN)
         hits = np.nonzero(big & overlapping(boxes, grown, 1e-9))[0]
         if len(hits) == 0:
             return None
@@ -107,3 +142,8 @@ class NodeExtents:
             return []
         hit = overlapping(boxes, o.box, self.params.footprint_overlap)
         return sorted(int(i) for i in ids[hit])
+
+
+def _side(box: np.ndarray) -> float:
+    """The longer side of a floor box."""
+    return float(max(box[2] - box[0], box[3] - box[1]))

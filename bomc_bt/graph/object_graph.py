@@ -22,6 +22,7 @@ import numpy as np
 from bomc_bt.graph.association import AssociationPolicy
 from bomc_bt.graph.evidence import MissEvidence
 from bomc_bt.graph.geometry import check_polygon
+from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.graph.paper import PaperPolicy
 from bomc_bt.graph.records import PRESENT, REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.robust import RobustPolicy
@@ -36,8 +37,10 @@ def make_policy(params: AssociationParams) -> AssociationPolicy:
 class ObjectGraph:
     """The live object graph (present nodes) with a spatial index, a change log and a policy."""
 
-    def __init__(self, params: AssociationParams, nodes: Iterable[Node] = (), next_id: int | None = None):
+    def __init__(self, params: AssociationParams, nodes: Iterable[Node] = (), next_id: int | None = None,
+                 edits: OperatorEdits | None = None):
         self.params = params
+        self.edits = edits or OperatorEdits()  # the operator's corrections this graph respects
         self.policy = make_policy(params)
         self.nodes: dict[int, Node] = {}
         self.index = SpatialIndex(params.largest_distance(), np.array([1.0, 1.0, self.policy.vertical_weight]))
@@ -119,6 +122,9 @@ class ObjectGraph:
         Nodes in neither list are never touched. ``miss_weights`` (robust mode): per
         expected node, how much a miss of it in this frame weighs (1: a clear, near view).
         """
+        if self.edits:  # the operator's corrections (bomc_bt.graph.operator_edits)
+            observations = self.edits.relabel(observations, self.nodes, self.index.scale, self.gate)
+            observations = self.edits.ignore_deleted(observations, self, self.params.readd_confidence)
         return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights)
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
@@ -130,6 +136,39 @@ class ObjectGraph:
             self._removed_now.clear()
             self._session = session
         return [i for i in dict.fromkeys(expected) if i in self.nodes]
+
+    # ------------------------------------------------------------ resume state
+    def pass_state(self) -> dict:
+        """What the graph keeps in memory during a pass besides the nodes the store holds:
+        when each node was last seen, counted misses, this session's removals (move
+        candidates), reported positions, widened gates and first sightings awaiting
+        confirmation. JSON-able; saved with every frame so a resumed pass continues exactly
+        (:mod:`bomc_bt.pass_resume`)."""
+        tentative = getattr(self.policy, "tentative", None)
+        return {
+            "session": self._session,
+            "last_seen": {str(i): n.last_seen for i, n in self.nodes.items() if n.last_seen is not None},
+            "last_miss": {str(i): list(v) for i, v in self._last_miss.items()},
+            "removed_now": sorted(self._removed_now),
+            "reported": {str(i): p.tolist() for i, p in self._reported.items()},
+            "gates": {str(i): g for i in self.nodes if (g := self.index.gate_of(i)) > 0.0},
+            "tentative": None if tentative is None else tentative.to_json(),
+        }
+
+    def restore_pass_state(self, state: dict, removed: dict[int, Node]) -> None:
+        """Put back what :meth:`pass_state` saved; ``removed`` are the store's removed nodes by id."""
+        self._session = state.get("session")
+        for key, seen in state.get("last_seen", {}).items():
+            if int(key) in self.nodes:
+                self.nodes[int(key)].last_seen = float(seen)
+        self._last_miss = {int(k): (int(v[0]), float(v[1])) for k, v in state.get("last_miss", {}).items()}
+        self._removed_now = {i: removed[i] for i in map(int, state.get("removed_now", [])) if i in removed}
+        self._reported = {int(k): np.asarray(v, dtype=float) for k, v in state.get("reported", {}).items()}
+        for key, gate in state.get("gates", {}).items():
+            self.index.widen_gate(int(key), float(gate))
+        tentative = getattr(self.policy, "tentative", None)
+        if tentative is not None and state.get("tentative") is not None:
+            tentative.restore(state["tentative"])
 
     # ---------------------------------------------------------------- mutations
     def insert(self, node: Node) -> None:
@@ -167,8 +206,7 @@ class ObjectGraph:
         self._changed[v.id] = v
         event = self.report("removed", v, session, stamp)
         # a removal is decided on at least the frame that did not see it (Algorithm 2 counts no misses)
-        event.misses, event.last_seen = (0 if merged else max(v.misses, 1)), v.last_seen
-        event.merged_into = merged_into
+        event.removal_evidence(0 if merged else max(int(v.misses), 1), merged, v.last_seen, merged_into)
         return event
 
     def restore(self, v: Node, position: np.ndarray) -> None:

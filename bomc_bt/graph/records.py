@@ -16,6 +16,9 @@ from bomc_bt.graph.footprints import box_or_none
 PRESENT = "present"
 REMOVED = "removed"
 EVENT_KINDS = ("added", "removed", "moved", "updated")
+# An operator's corrections (``bomc edit``), kept in the same history as the robot's events
+# but never counted as something a pass observed (see bomc_bt.site.edits).
+OPERATOR_KINDS = ("relabelled", "deleted", "restored", "noted")
 
 
 @dataclass
@@ -72,11 +75,41 @@ class Event:
     stamp: float
     previous: np.ndarray | None = None  # position before a move
     confidence: float = 0.0
-    # a removal's evidence (None on other events, and where it was not recorded): how many
-    # frames counted the node missing (0: merged), the robot time of the latest frame that saw it
-    misses: int | None = None
-    last_seen: float | None = None
-    merged_into: int | None = None  # a removal that folded a duplicate into this node
+    # JSON-able evidence or an operator's words: on a removal {"misses": n, "merged": bool,
+    # "seen": robot time last seen, "merged_into": id}; {"text": ..., "from": ...,
+    # "after_session": n} on an operator event; None when there is nothing
+    detail: dict | None = None
+
+    @property
+    def by_operator(self) -> bool:
+        return self.kind in OPERATOR_KINDS
+
+    @property
+    def misses(self) -> int | None:
+        """A removal: frames that counted the node missing (0: merged; None: not recorded)."""
+        value = (self.detail or {}).get("misses")
+        return None if value is None else int(value)
+
+    @property
+    def last_seen(self) -> float | None:
+        """A removal: robot time of the latest frame that saw the node (None: not recorded)."""
+        value = (self.detail or {}).get("seen")
+        return None if value is None else float(value)
+
+    @property
+    def merged_into(self) -> int | None:
+        """A removal that folded a duplicate into this node (None: not a merge, or not known)."""
+        value = (self.detail or {}).get("merged_into")
+        return None if value is None else int(value)
+
+    def removal_evidence(self, misses: int, merged: bool, last_seen: float | None,
+                         merged_into: int | None = None) -> None:
+        """Record why a removal was decided (the history keeps it as ``detail``)."""
+        self.detail = {"misses": int(misses), "merged": bool(merged)}
+        if last_seen is not None:
+            self.detail["seen"] = float(last_seen)
+        if merged_into is not None:
+            self.detail["merged_into"] = int(merged_into)
 
 
 @dataclass
@@ -108,6 +141,12 @@ class AssociationParams:
     # [m] robust: gap between a truncated view's box and a big object's footprint that still
     # touches it (about the width of what hides the rest: a chair in front of a table)
     footprint_touch: float = 0.5
+    # [bool] robust: a view whose box lies clear of a small node's footprint is another object
+    # (chairs side by side at a table); off by default until it stops doubling lab-b's cabinet
+    separate_neighbours: bool = False
+    # [-] a detection nearer to where the operator deleted an object of its category than to
+    # any node counts only at this confidence or more (bomc_bt.graph.operator_edits)
+    readd_confidence: float = 0.95
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -137,6 +176,8 @@ class AssociationParams:
             raise ValueError("footprint_overlap must be in [0, 1] (0 turns it off)")
         if self.footprint_touch < 0:
             raise ValueError("footprint_touch must be >= 0")
+        if not 0.0 <= self.readd_confidence <= 1.0:
+            raise ValueError("readd_confidence must be in [0, 1]")
 
     def distance(self, category: str) -> float:
         """delta_c: the association distance of ``category``."""

@@ -22,6 +22,8 @@
 * *No duplicates.* An unmatched observation within delta_c of a same-category node
   (which then has been matched by a closer observation) is absorbed, as in the paper.
   Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
+* *Neighbours stay apart* (opt-in, ``separate_neighbours``). A view whose floor box lies
+  clear of a small node's footprint is another object, however near (chairs 0.8 m apart round a table, delta_c 0.7 m).
 * *Moves keep their id.* An unmatched observation farther than delta_c from every
   same-category node but within ``move_radius`` of a same-category node that was removed
   earlier in this session is taken to be that object moved: it keeps its id and the
@@ -111,7 +113,7 @@ class RobustPolicy:
                 continue  # matched, or absorbed: a closer observation already matched that node
             if o.truncated and (v := self.extents.touched_node(graph, o)) is not None:
                 # a part of a known object, cut off by an occluder (see NodeExtents.touched_node)
-                events.extend(self._refresh(graph, v, o, session, stamp, restart=False))
+                events.extend(self._refresh(graph, v, o, session, stamp, restart=False, extend=True))
                 continue
             if not self.tentative.confirmed(o, stamp, self.gate(o)):
                 continue
@@ -125,12 +127,18 @@ class RobustPolicy:
         return events
 
     def _near(self, graph: ObjectGraph, obs: Sequence[Observation]) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Per observation: ids and squared distances of the nodes it may match."""
+        """Per observation: ids and squared distances of the nodes it may match (not those
+        whose small object's footprint its view lies clear of: a neighbour, not the same)."""
         gates = [self.gate(o) for o in obs]
         reaches = [max(self.extents.reach(o), g) for o, g in zip(obs, gates, strict=True)]
         boxes = [o.box for o in obs] if self.extents.boxes else None
-        return graph.index.within_many([o.category for o in obs], [o.position for o in obs], reaches, gates,
+        near = graph.index.within_many([o.category for o in obs], [o.position for o in obs], reaches, gates,
                                        boxes, self.params.footprint_overlap)
+        out = []
+        for o, (ids, d2) in zip(obs, near, strict=True):
+            keep = [not self.extents.separate(graph.nodes[int(i)], o) for i in ids]
+            out.append((ids, d2) if all(keep) else (ids[keep], d2[keep]))
+        return out
 
     def _merge_hidden_duplicates(self, graph: ObjectGraph, pairs: list[Pair], matched: set[int], hidden: set[int],
                                  obs: Sequence[Observation], session: int, stamp: float) -> list[Event]:
@@ -158,7 +166,7 @@ class RobustPolicy:
             covered |= {v.id for v, _ in graph.within(o.category, o.position, self.gate(o)) if v.id in hidden}
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
-                if v is None or other is None or oid == vid or oid in matched:
+                if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o):
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
@@ -172,11 +180,12 @@ class RobustPolicy:
         return events
 
     def _refresh(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float,
-                 restart: bool | None = None) -> list[Event]:
+                 restart: bool | None = None, extend: bool = False) -> list[Event]:
         """Move ``v`` towards ``o`` and count it seen; the "updated" event if one is due."""
         w = self.params.position_smoothing
         first_in_session = v.last_session != session
-        self.extents.grow(graph, v, o, self.gate(o), restart=first_in_session if restart is None else restart)
+        self.extents.grow(graph, v, o, self.gate(o), restart=first_in_session if restart is None else restart,
+                          extend=extend)
         target = (1.0 - w) * v.position + w * o.position
         if self.extents.is_big(v):  # the middle of the floor it covers, not of its visible faces
             target[:2] = (v.footprint[:2] + v.footprint[2:]) / 2.0

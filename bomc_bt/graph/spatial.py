@@ -91,6 +91,11 @@ class SpatialIndex:
         if slot is not None:
             self._gate[slot] = max(self._gate[slot], gate)
 
+    def gate_of(self, node_id: int) -> float:
+        """The node's own gate (0: none, or not indexed)."""
+        slot = self._slot_of.get(node_id)
+        return 0.0 if slot is None else float(self._gate[slot])
+
     def set_box(self, node_id: int, box: np.ndarray | None) -> None:
         """Replace the node's footprint box (None: unknown)."""
         slot = self._slot_of.get(node_id)

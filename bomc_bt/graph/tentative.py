@@ -42,6 +42,17 @@ class TentativeSightings:
             self.waiting = []
             self._session = session
 
+    def to_json(self) -> dict:
+        """The sightings waiting, JSON-able (a resumed pass picks them up again)."""
+        return {"session": self._session,
+                "waiting": [{"category": t.category, "position": t.position.tolist(), "count": t.count,
+                             "last": t.last, "first": t.first} for t in self.waiting]}
+
+    def restore(self, data: dict) -> None:
+        self._session = data.get("session")
+        self.waiting = [Sighting(w["category"], np.asarray(w["position"], dtype=float), int(w["count"]),
+                                 float(w["last"]), float(w["first"])) for w in data.get("waiting", [])]
+
     def confirmed(self, o: Observation, stamp: float, gate: float) -> bool:
         """Whether ``o`` is now seen often enough to be added (then ``o.position`` becomes the
         mean of its sightings); otherwise it is remembered or counted as a sighting."""

@@ -16,7 +16,7 @@ from bomc_bt.officegen.generate import draft_office, write_office
 from bomc_bt.officegen.params import OfficeParams
 
 _OPTION = {"width": "--size", "height": "--size", "seed": "--seed", "sessions": "--sessions",
-           "churn": "--churn", "resolution": "--resolution"}
+           "churn": "--churn", "resolution": "--resolution", "corridor_chair_every": "--corridor-chairs"}
 _SIZE = re.compile(r"\s*([0-9]+(?:\.[0-9]*)?)\s*[xX]\s*([0-9]+(?:\.[0-9]*)?)\s*")
 
 
@@ -25,11 +25,15 @@ def params_from_args(args: Namespace) -> OfficeParams:
     m = _SIZE.fullmatch(args.size)
     if not m:
         raise BomcError(f"expected WxH in metres (e.g. 93x90), got {args.size!r}", None, "--size")
+    if args.static and getattr(args, "corridor_chairs", 0):
+        raise BomcError("a static world has no changes: give --static or --corridor-chairs, not both", None,
+                        "--corridor-chairs")
     if args.static and args.churn is not None:
         raise BomcError("a static world has no churn: give --static or --churn, not both", None, "--churn")
     params = OfficeParams(width=float(m.group(1)), height=float(m.group(2)), resolution=args.resolution,
                           seed=args.seed, sessions=args.sessions, static=args.static,
-                          churn=0.05 if args.churn is None else args.churn)
+                          churn=0.05 if args.churn is None else args.churn,
+                          corridor_chair_every=getattr(args, "corridor_chairs", 0))
     try:
         return params.check()
     except BomcError as exc:

@@ -58,6 +58,7 @@ class Layout:
         self.spaces = [RoomSpace(room, plan.doorways, params) for room in plan.rooms]
         self.present: dict[str, Item] = {}
         self.removed: dict[str, Item] = {}  # removed earlier, may be brought back
+        self.corridor: dict[str, Item] = {}  # chairs left in a corridor: they stay (officegen.corridor_chairs)
         self._counters: dict[str, int] = {}
 
     def new_name(self, category: str) -> str:

@@ -83,6 +83,7 @@ class OfficeParams:
     robot_radius: float = 0.3  # doorways and objects keep a way this wide (plus a cell) open
     view_reach: float = 1.6  # every object has a reachable robot pose within this distance
     obstacle_every: int = 3  # sessions 3, 6, 9, ... block a corridor segment
+    corridor_chair_every: int = 0  # sessions N, 2N, ... (>= 2) leave a chair mid-corridor; 0: never
     margin: float = 0.5  # unknown border around the floor in the map image
 
     def check(self) -> OfficeParams:
@@ -93,7 +94,7 @@ class OfficeParams:
 
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name in ("name", "seed", "sessions", "obstacle_every", "static"):
+            if f.name in ("name", "seed", "sessions", "obstacle_every", "corridor_chair_every", "static"):
                 continue
             values = value if isinstance(value, tuple) else (value,)
             need(all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in values),
@@ -129,5 +130,7 @@ class OfficeParams:
         need(0.5 <= self.view_reach <= 5.0, "view_reach", "must be 0.5 to 5 m")
         need(isinstance(self.obstacle_every, int) and self.obstacle_every >= 2, "obstacle_every",
              "must be an integer >= 2")
+        need(isinstance(self.corridor_chair_every, int) and not isinstance(self.corridor_chair_every, bool)
+             and 0 <= self.corridor_chair_every <= 100, "corridor_chair_every", "must be an integer 0 to 100")
         need(0.0 <= self.margin <= 5.0, "margin", "must be 0 to 5 m")
         return self

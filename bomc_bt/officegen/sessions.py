@@ -23,6 +23,12 @@ import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.officegen.connectivity import rasterise, reachable
+from bomc_bt.officegen.corridor_chairs import (
+    add_corridor_move,
+    corridor_chair_sessions,
+    footprints,
+    leave_chair_in_corridor,
+)
 from bomc_bt.officegen.floor import Corridor, FloorPlan
 from bomc_bt.officegen.layout import Item, Layout
 from bomc_bt.officegen.params import ADDED_MIX, CHURN_WEIGHT
@@ -41,6 +47,7 @@ class Timeline:
     sessions: dict[int, dict[str, Any]] = field(default_factory=dict)
     during: list[dict[str, Any]] = field(default_factory=list)
     blocked: dict[int, Corridor] = field(default_factory=dict)  # session -> the corridor closed
+    corridor_chairs: dict[int, str] = field(default_factory=dict)  # session -> the chair left in a corridor
 
 
 def plan_timeline(layout: Layout) -> Timeline:
@@ -57,6 +64,12 @@ def plan_timeline(layout: Layout) -> Timeline:
             if got is not None:
                 change["obstacles"] = [got[0]]
                 out.blocked[k] = got[1]
+        if k in corridor_chair_sessions(p.corridor_chair_every, p.sessions):
+            added = {a["name"] for a in change.get("add", [])}
+            moved = leave_chair_in_corridor(layout, _free_spans, _segments(layout.plan), out.blocked.get(k), added)
+            add_corridor_move(change, moved)
+            if moved:
+                out.corridor_chairs[k] = next(iter(moved))
         out.sessions[k] = {key: v for key, v in change.items() if v}
         during = _during(layout, k)
         if during is not None:
@@ -170,7 +183,7 @@ def _block_corridor(layout: Layout, k: int) -> tuple[dict[str, Any], Corridor] |
     plan, p = layout.plan, layout.params
     grid = plan.grid()
     start = plan.start[:2]
-    boxes = [box_corners(it.x, it.y, it.size[0], it.size[1], it.yaw) for it in layout.present.values()]
+    boxes = footprints(layout)
     before = reachable(grid, boxes, p.robot_radius, start)
     segments = _segments(plan)
     for i in layout.rng.permutation(len(segments)):

@@ -89,6 +89,8 @@ class SimBridge:
                 lambda _r: EmptyResponse(),
             ),
         ]
+        if params.clear_costmaps_service:
+            self.services.append(rospy.Service(params.clear_costmaps_service, Empty, self._on_clear_costmaps))
         self.subs = [
             rospy.Subscriber(
                 params.initialpose_topic, PoseWithCovarianceStamped, self._on_initialpose, queue_size=5
@@ -133,6 +135,13 @@ class SimBridge:
     def _on_global(self, _req: Any) -> Any:
         self._queue("global", None)
         return self._srv_empty()
+
+    def _on_clear_costmaps(self, _req: Any) -> Any:
+        self._queue("clear_costmaps", None)
+        return self._srv_empty()
+
+    def _apply_clear_costmaps(self, _item: Any) -> None:
+        self.sim.clear_costmaps()
 
     def _drain(self) -> None:
         """Apply what the callbacks queued, in arrival order."""

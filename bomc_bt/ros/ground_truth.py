@@ -95,11 +95,16 @@ class GroundTruthChannel:
         entry = self._entry(frame.stamp)
         if entry is None:
             raise KeyError(f"no ground truth for the frame at {frame.stamp:.2f} s")
-        img, info = entry["image"], entry["info"]
-        instances = np.frombuffer(img.data, dtype="<i4").reshape(img.height, img.width).astype(np.int32)
-        return SimFrame.of(
-            frame,
-            instances,
-            {int(k): str(v) for k, v in info["categories"].items()},
-            {int(k): int(v) for k, v in info.get("unoccluded", {}).items()},
-        )
+        return with_ground_truth(frame, entry["image"], entry["info"])
+
+
+def with_ground_truth(frame: RGBDFrame, image: Any, info: dict[str, Any]) -> SimFrame:
+    """``frame`` with the instance image message and the info record of its stamp
+    (what the channel received, or what a recorded bag holds: :mod:`bomc_bt.ros.bag`)."""
+    instances = np.frombuffer(image.data, dtype="<i4").reshape(image.height, image.width).astype(np.int32)
+    return SimFrame.of(
+        frame,
+        instances,
+        {int(k): str(v) for k, v in info["categories"].items()},
+        {int(k): int(v) for k, v in info.get("unoccluded", {}).items()},
+    )

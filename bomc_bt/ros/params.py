@@ -30,6 +30,8 @@ class RosParams:
     amcl_pose_topic: str = "/amcl_pose"  # [text] AMCL's pose estimate with covariance
     global_localization_service: str = "/global_localization"  # [text] AMCL's global relocalization
     nomotion_update_service: str = "/request_nomotion_update"  # [text] AMCL update without motion; "" never asks
+    # [text] move_base's service that empties its costmaps' obstacle layers (std_srvs/Empty); "" never asks
+    clear_costmaps_service: str = "/move_base/clear_costmaps"
     nomotion_update_period: float = 1.0  # [s] ROS time between update requests while waiting
     initial_xy_std: float = 0.5  # [m] position std /initialpose is published with
     initial_yaw_std_deg: float = 17.188733853924695  # [deg] yaw std /initialpose is published with (0.3 rad exactly)

@@ -353,6 +353,11 @@ class RosRobot:
         self._reloc = AmclRelocalization(self, hint, global_search)
         return self._reloc
 
+    def clear_costmaps(self) -> None:
+        """move_base's ``clear_costmaps`` service (``ros.clear_costmaps_service``), in the background."""
+        if self.params.clear_costmaps_service:
+            self.call_service(self.params.clear_costmaps_service)
+
     def cancel_all(self) -> None:
         if self._nav is not None:
             self._nav.cancel()

@@ -31,6 +31,7 @@ robot *reports*, so localization error reaches the object map as it does on a ro
 
 from __future__ import annotations
 
+import functools
 import math
 import zlib
 from dataclasses import dataclass
@@ -42,7 +43,8 @@ from bomc_bt.geometry import Pose2D, rotation_y, se3
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.sim.frame import SimFrame
 from bomc_bt.sim.params import CameraParams
-from bomc_bt.sim.raycast import NONE, RayTable, WallField, draw_box, draw_cylinder, scene_solids
+from bomc_bt.sim.raycast import NEAR, NONE, RayTable, WallField, draw_box, draw_cylinder
+from bomc_bt.sim.solids import SceneSolids
 
 # Optical frame (z forward, x right, y down) expressed in base_link (x forward, y left, z up).
 _R_BASE_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -64,6 +66,7 @@ class SimCamera:
                               self.params.mount_height)
         self._walls_key: np.ndarray | None = None
         self._walls_field: WallField | None = None
+        self._solids = SceneSolids()
 
     # -- calibration -----------------------------------------------------------------
     def T_base_camera(self) -> np.ndarray:
@@ -92,10 +95,12 @@ class SimCamera:
         field_ = self._wall_field(walls, grid)
         dist = field_.cast(origin[:2], rays.bin_azimuths + true_pose.yaw, rays.max_horizontal(p.depth_max))
         depth, label = rays.walls_and_floor(dist, origin[2], wall_height)
-        boxes, cylinders = scene_solids(objects, obstacles, people)
+        solids = self._solids
+        cylinders = solids.update(objects, obstacles, people)
         unoccluded: dict[int, int] = {}
-        for box in boxes:
-            n = draw_box(box, depth, label, T_map_camera, rays, true_pose.yaw, p.depth_max)
+        for i in solids.candidates(T_map_camera, rays.K, rays.shape, p.depth_max, NEAR):
+            box = solids.boxes[i]
+            n = draw_box(box, depth, label, T_map_camera, rays, true_pose.yaw, p.depth_max, solids.corners[i])
             if n:
                 unoccluded[box.label] = n
         for centre, label_id in cylinders:
@@ -113,7 +118,10 @@ class SimCamera:
         rgb = _shade(label, depth, objects)
         depth[beyond | (depth < p.depth_min)] = np.nan
         if p.depth_noise > 0.0:
-            depth += _depth_noise(depth.shape, self.seed, stamp) * (np.float32(p.depth_noise) * depth * depth)
+            spread = np.multiply(depth, np.float32(p.depth_noise))  # noise * (sigma * d * d), in place
+            spread *= depth
+            spread *= _depth_noise(depth.shape, self.seed, stamp)
+            depth += spread
         instances = np.maximum(label, 0).astype(np.int32, copy=False)
         categories = {i + 1: str(o.category) for i, o in enumerate(objects)}
         return SimFrame(
@@ -169,6 +177,7 @@ def _stamp_key(stamp: float) -> int:
 
 
 # -- colour --------------------------------------------------------------------------------
+@functools.lru_cache(maxsize=1024)
 def category_colour(category: str) -> tuple[int, int, int]:
     """A stable, saturated RGB colour per category name (crc32 hue)."""
     hue = zlib.crc32(category.encode("utf-8")) % 180

@@ -176,7 +176,7 @@ def _candidates(frame: SimFrame, instances: np.ndarray, prompts: set[str],
     size = max(int(flat.max(initial=0)), max(wanted)) + 1
     counts = np.bincount(flat, minlength=size)
     depth = frame.depth.ravel()
-    valid = np.isfinite(depth)
+    valid = np.isfinite(depth) & (flat > 0)  # walls and floor (id 0 and below) are never candidates
     n_depth = np.bincount(flat[valid], minlength=size)
     sum_depth = np.bincount(flat[valid], weights=depth[valid], minlength=size)
     far = float(frame.depth_range[1])

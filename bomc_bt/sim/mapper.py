@@ -84,6 +84,7 @@ class Mapper:
                  params: MapperParams | None = None):
         self.params = params or MapperParams()
         self.log_odds = np.zeros((height, width), dtype=np.float32)
+        self._cells = np.full((height, width), UNKNOWN, dtype=np.int8)  # log_odds thresholded, kept in step
         self.geometry = OccupancyGrid.unknown(width, height, resolution, origin)
         self.updates = 0
         self._last_pose: Pose2D | None = None
@@ -119,18 +120,23 @@ class Mapper:
         h, w = delta.shape
         view = self.log_odds[raster.r0:raster.r0 + h, raster.c0:raster.c0 + w]
         np.clip(view + delta, -p.clamp_log_odds, p.clamp_log_odds, out=view)
+        cells = self._cells[raster.r0:raster.r0 + h, raster.c0:raster.c0 + w]
+        cells[...] = UNKNOWN
+        cells[view < p.free_threshold] = FREE
+        cells[view > p.occupied_threshold] = OCCUPIED
         self.updates += 1
         self._map = None
         return True
 
     def grid(self) -> OccupancyGrid:
-        """The current map (cached until the next integrated scan)."""
+        """The current map (cached until the next integrated scan).
+
+        Each integrated scan re-thresholds only the cells it touched, so a new map is a
+        copy of those cells, not a pass over the whole log-odds grid; a map handed out
+        earlier keeps its own cells.
+        """
         if self._map is None:
-            p = self.params
-            data = np.full(self.log_odds.shape, UNKNOWN, dtype=np.int8)
-            data[self.log_odds < p.free_threshold] = FREE
-            data[self.log_odds > p.occupied_threshold] = OCCUPIED
-            self._map = OccupancyGrid(data, self.geometry.resolution, tuple(self.geometry.origin))
+            self._map = OccupancyGrid(self._cells.copy(), self.geometry.resolution, tuple(self.geometry.origin))
         return self._map
 
 

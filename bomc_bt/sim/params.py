@@ -147,8 +147,9 @@ class SimParams:
     localization: LocalizationParams = field(default_factory=LocalizationParams)
 
     def __post_init__(self) -> None:
-        if not self.dt > 0:
-            raise ValueError("dt must be > 0")
+        if not 0.001 <= self.dt <= 1.0:
+            raise ValueError("dt must be 0.001 to 1 s (a step longer than the robot's reaction makes no sense, "
+                             "a shorter one only slows the simulation)")
 
 
 @dataclass
@@ -168,8 +169,8 @@ class CameraParams:
     rate: float = 2.0  # [Hz] frames per second of sim time
 
     def __post_init__(self) -> None:
-        if self.width <= 0 or self.height <= 0:
-            raise ValueError("width and height must be positive")
+        if not (0 < self.width <= 8192 and 0 < self.height <= 8192):
+            raise ValueError("width and height must be 1 to 8192 pixels")
         if not 0.0 < self.scale <= 4.0:
             raise ValueError("scale must be in (0, 4]")
         if not 1.0 <= self.hfov_deg <= 170.0:
@@ -220,5 +221,5 @@ class SimDetectorParams:
         if self.min_pixels < 1:
             raise ValueError("min_pixels must be >= 1")
         for start, end in self.dropouts:
-            if end < start:
-                raise ValueError(f"dropout ({start}, {end}) ends before it starts")
+            if end < start or start < 0:
+                raise ValueError(f"dropout ({start}, {end}) must start at 0 s or later and end after it starts")

@@ -20,7 +20,11 @@ from bomc_bt.grid import OccupancyGrid
 
 PERSON_RADIUS = 0.25  # m
 PERSON_HEIGHT = 1.7  # m
-_NEAR = 1e-3  # m: hits closer than this along the ray are ignored (camera inside a box)
+NEAR = 1e-3  # m: hits closer than this along the ray are ignored (camera inside a box)
+_CLIP = 0.5 * NEAR  # m: the plane a solid straddling the camera is clipped at for its screen rectangle
+_UNIT_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+# Every pair of a solid's 8 corners: its edges are among them, whatever the corner order.
+_CORNER_PAIRS = np.triu_indices(8, k=1)
 
 # Label codes of the render buffer besides instance ids (> 0).
 WALL = -2
@@ -82,10 +86,14 @@ class RayTable:
             z_wall = np.float32(camera_z) + t_wall * self.bz
             below = z_wall < 0.0  # the ray meets the floor before the wall (inf, -inf too)
             on_wall = (z_wall >= 0.0) & (z_wall <= wall_height)
-        depth = np.where(below, self.t_floor, np.where(on_wall, t_wall, np.float32(np.inf)))
-        label = np.where(below, FLOOR, np.where(on_wall, WALL, NONE)).astype(np.int32)
-        label[~np.isfinite(depth)] = NONE
-        return depth.astype(np.float32, copy=False), label
+        depth = np.full(self.shape, np.inf, dtype=np.float32)
+        np.copyto(depth, t_wall, where=on_wall)
+        np.copyto(depth, self.t_floor, where=below)  # below and on_wall never meet
+        label = np.zeros(self.shape, dtype=np.int32)  # NONE
+        np.copyto(label, WALL, where=on_wall)
+        np.copyto(label, FLOOR, where=below)
+        np.copyto(label, NONE, where=~np.isfinite(depth))
+        return depth, label
 
 
 class WallField:
@@ -113,25 +121,30 @@ class WallField:
         start = np.array([(xy[0] - self.origin[0]) / res + 1.0, (xy[1] - self.origin[1]) / res + 1.0])
         dirs = np.stack([np.cos(azimuths), np.sin(azimuths)], axis=1)
         limit = max_range / res
-        travelled = np.zeros(len(azimuths))
         out = np.full(len(azimuths), np.inf)
+        # The beams still flying, compacted as they stop: index, direction, distance travelled.
         active = np.arange(len(azimuths))
+        du, dv = dirs[:, 0].copy(), dirs[:, 1].copy()
+        travelled = np.zeros(len(azimuths))
         h, w = self.solid.shape
+        solid, dt = self.solid.ravel(), self.dt.ravel()
+        hits: list[tuple[np.ndarray, np.ndarray]] = []  # (azimuth, travelled at hit), refined together
         while active.size:
-            pos = start + dirs[active] * travelled[active, None]
-            col = np.clip(pos[:, 0].astype(np.intp), 0, w - 1)
-            row = np.clip(pos[:, 1].astype(np.intp), 0, h - 1)
-            outside = (pos[:, 0] < 0) | (pos[:, 1] < 0)
-            hit = self.solid[row, col] | outside
+            pu, pv = start[0] + du * travelled, start[1] + dv * travelled
+            cell = (np.minimum(np.maximum(pv.astype(np.intp), 0), h - 1) * w
+                    + np.minimum(np.maximum(pu.astype(np.intp), 0), w - 1))
+            hit = solid[cell] | (pu < 0) | (pv < 0)
             if hit.any():
-                idx = active[hit]
-                out[idx] = self._refine(start, dirs[idx], travelled[idx]) * res
-            keep = ~hit
-            active, row, col = active[keep], row[keep], col[keep]
-            step = np.maximum(self.dt[row, col] - self._SAFETY, self._MIN_STEP)
-            travelled[active] += step
-            far = travelled[active] > limit
-            active = active[~far]
+                hits.append((active[hit], travelled[hit]))
+                keep = ~hit
+                active, du, dv, travelled, cell = active[keep], du[keep], dv[keep], travelled[keep], cell[keep]
+            travelled = travelled + np.maximum(dt[cell] - self._SAFETY, self._MIN_STEP)
+            flying = travelled <= limit
+            if not flying.all():
+                active, du, dv, travelled = active[flying], du[flying], dv[flying], travelled[flying]
+        if hits:
+            idx, hit_at = (np.concatenate(parts) for parts in zip(*hits, strict=True))
+            out[idx] = self._refine(start, dirs[idx], hit_at) * res
         return out
 
     def _refine(self, start: np.ndarray, dirs: np.ndarray, hit_at: np.ndarray) -> np.ndarray:
@@ -175,10 +188,11 @@ def _screen_rect(corners: np.ndarray, T_map_camera: np.ndarray, shape: tuple[int
     cam = (corners - t) @ R
     z = cam[:, 2]
     h, w = shape
-    if z.max() <= _NEAR or z.min() > depth_max:
+    if z.max() <= NEAR or z.min() > depth_max:
         return None
-    if z.min() <= _NEAR:  # straddles the image plane: its projection is unbounded
-        return 0, h, 0, w
+    if z.min() <= NEAR:  # straddles the near plane: only its part in front can be hit
+        cam = _in_front(cam)
+        z = cam[:, 2]
     u = K[0, 0] * cam[:, 0] / z + K[0, 2]
     v = K[1, 1] * cam[:, 1] / z + K[1, 2]
     c0, c1 = max(int(math.floor(u.min())) - 1, 0), min(int(math.ceil(u.max())) + 2, w)
@@ -188,12 +202,38 @@ def _screen_rect(corners: np.ndarray, T_map_camera: np.ndarray, shape: tuple[int
     return r0, r1, c0, c1
 
 
-def draw_box(box: Box, depth: np.ndarray, label: np.ndarray, T_map_camera: np.ndarray, rays: RayTable,
-              yaw: float, depth_max: float) -> int:
-    """Slab-test the box in its screen rectangle; z-buffer it in. Returns its unoccluded pixels."""
+def _in_front(cam: np.ndarray) -> np.ndarray:
+    """Vertices of a box's part in front of the plane z = ``_CLIP`` (camera frame, (8, 3) in).
+
+    A pixel only takes a hit farther than ``NEAR`` along its ray, so the hit lies in this
+    part and its pixel inside the part's projection. Clipping at half of ``NEAR`` keeps the
+    rectangle a superset of those pixels with room for rounding; a box beside the camera
+    then covers the strip of the image it can reach instead of the whole image.
+    """
+    z = cam[:, 2] - _CLIP
+    a, b = _CORNER_PAIRS
+    cross = z[a] * z[b] < 0.0
+    a, b = a[cross], b[cross]
+    crossing = cam[a] + (z[a] / (z[a] - z[b]))[:, None] * (cam[b] - cam[a])
+    return np.concatenate([cam[z >= 0.0], crossing])
+
+
+def solid_corners(box: Box) -> np.ndarray:
+    """The box's 8 map-frame corners, corner i at (bit 2, bit 1, bit 0) of i along (x, y, z)."""
     c, s = math.cos(box.yaw), math.sin(box.yaw)
-    local = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * box.half
-    corners = local @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T + box.centre
+    local = _UNIT_CORNERS * box.half
+    return local @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]).T + box.centre
+
+
+def draw_box(box: Box, depth: np.ndarray, label: np.ndarray, T_map_camera: np.ndarray, rays: RayTable,
+              yaw: float, depth_max: float, corners: np.ndarray | None = None) -> int:
+    """Slab-test the box in its screen rectangle; z-buffer it in. Returns its unoccluded pixels.
+
+    ``corners``: :func:`solid_corners` of the box, when the caller keeps them.
+    """
+    c, s = math.cos(box.yaw), math.sin(box.yaw)
+    if corners is None:
+        corners = solid_corners(box)
     rect = _screen_rect(corners, T_map_camera, rays.shape, rays.K, depth_max)
     if rect is None:
         return 0
@@ -214,7 +254,7 @@ def draw_box(box: Box, depth: np.ndarray, label: np.ndarray, T_map_camera: np.nd
             t2 = (np.float32(box.half[axis] - o[axis])) * inv
             np.maximum(t_near, np.minimum(t1, t2), out=t_near)
             np.minimum(t_far, np.maximum(t1, t2), out=t_far)
-        hit = (t_near <= t_far) & (t_near > _NEAR)
+        hit = (t_near <= t_far) & (t_near > NEAR)
     return _composite(hit, t_near, depth[r0:r1, c0:c1], label[r0:r1, c0:c1], box.label)
 
 
@@ -240,10 +280,10 @@ def draw_cylinder(centre: np.ndarray, label_id: int, depth: np.ndarray, label: n
     with np.errstate(invalid="ignore", divide="ignore"):
         t_side = (-b - np.sqrt(disc)) / (2.0 * a)
         z_side = np.float32(origin[2]) + t_side * bz
-        side = (disc >= 0) & (t_side > _NEAR) & (z_side >= 0.0) & (z_side <= PERSON_HEIGHT)
+        side = (disc >= 0) & (t_side > NEAR) & (z_side >= 0.0) & (z_side <= PERSON_HEIGHT)
         t_cap = (np.float32(PERSON_HEIGHT - origin[2])) * rays.inv_bz[r0:r1, c0:c1]
         px, py = rel[0] + t_cap * dx, rel[1] + t_cap * dy
-        cap = (t_cap > _NEAR) & (px * px + py * py <= r * r) & (origin[2] > PERSON_HEIGHT)
+        cap = (t_cap > NEAR) & (px * px + py * py <= r * r) & (origin[2] > PERSON_HEIGHT)
     t = np.where(side, t_side, np.where(cap, t_cap, np.inf)).astype(np.float32)
     return _composite(side | cap, t, depth[r0:r1, c0:c1], label[r0:r1, c0:c1], label_id)
 

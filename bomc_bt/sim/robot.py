@@ -79,6 +79,7 @@ class SimRobot:
         self._reloc_rng = np.random.default_rng(streams[3])
         self._objects = world.objects_in_session(session)
         self._pending = list(world.during_changes(session))
+        self._during_applied = 0  # how many of the session's during changes are applied
         self.scene = Scene(world, self._objects, world.obstacles_in_session(session), p.scene, p.lidar.height)
         self.people = People(self.scene, p.faults.people, p.faults.person_speed, people_rng,
                              keep_clear=(world.start.x, world.start.y))
@@ -88,6 +89,7 @@ class SimRobot:
         self.navigator = Navigator(p.motion, p.planner.goal_tolerance, self._nav_rng,
                                    p.faults.nav_failure_probability)
         self._stuck = False
+        self._resumed_navigation: NavHandle | None = None  # the goal in flight when a pass was restored
         # Maps and localization.
         self.mapper = Mapper.like(world.grid, p.mapper) if mode == "build" else None
         self.planners = SimPlanners(p.planner, self.mapper)
@@ -169,15 +171,29 @@ class SimRobot:
         self._perceive()
 
     def _apply_during(self, now: float) -> None:
-        changed = False
         while self._pending and self._pending[0].at <= now + 1e-9:
-            change = self._pending.pop(0).change
-            self._objects = apply_change(self._objects, change, self.world.path, "during")
-            if change.obstacles:
-                self.scene.obstacles.extend(change.obstacles)
-            changed = True
-        if changed:
-            self.scene.set_objects(self._objects)
+            self._apply_next_during()
+
+    def _apply_next_during(self) -> None:
+        change = self._pending.pop(0).change
+        self._objects = apply_change(self._objects, change, self.world.path, "during")
+        if change.obstacles:
+            self.scene.obstacles.extend(change.obstacles)
+        self._during_applied += 1
+        self.scene.set_objects(self._objects)
+
+    # -- exact resume (bomc_bt.sim.checkpoint) ---------------------------------------------
+    def checkpoint(self) -> dict[str, Any]:
+        """This step's state, JSON-able: saved with a pass's progress."""
+        from bomc_bt.sim.checkpoint import robot_state
+
+        return robot_state(self)
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from a :meth:`checkpoint` of this session (call after :meth:`use_map`)."""
+        from bomc_bt.sim.checkpoint import restore_robot
+
+        restore_robot(self, state)
 
     def _move(self, v: float, w: float, dt: float) -> None:
         """Unicycle step on the true pose; translations into anything solid are refused."""
@@ -251,6 +267,9 @@ class SimRobot:
 
     # -- port: navigation ------------------------------------------------------------------
     def navigate(self, goal: Pose2D) -> NavHandle:
+        resumed, self._resumed_navigation = self._resumed_navigation, None
+        if resumed is not None and resumed.status() is Status.RUNNING and resumed.goal == goal:
+            return resumed  # a resumed pass sends the goal it was driving to: drive on (sim/checkpoint.py)
         if not self._localized:
             self.navigator.cancel()
             handle = NavHandle(goal)
@@ -261,6 +280,12 @@ class SimRobot:
             handle.finish(Status.FAILED, "no map in use")
             return handle
         return self.navigator.start(goal, self._estimate, self.now(), self.planners.live, self.planners.static)
+
+    def clear_costmaps(self) -> None:
+        """Empty the obstacle layer (monitor); the next scan starts refilling it at once."""
+        if self._obstacles is not None:
+            self._obstacles.clear()
+            self._next_obstacle_update = self.now()
 
     def cancel_all(self) -> None:
         self.navigator.cancel()

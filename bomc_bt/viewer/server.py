@@ -11,7 +11,9 @@ Routes:
   with the sections that changed; its SSE id is ``<epoch>:<version>``. A browser's
   ``EventSource`` reconnects by itself and sends that id back as ``Last-Event-ID``, so a
   reconnecting page receives only what it missed, and everything when the server is not
-  the one it was talking to.
+  the one it was talking to. When the server closes (the mission, or ``bomc view``,
+  ended) each stream sends ``event: end`` last, so the page says so instead of
+  "reconnecting" (it still reconnects to a new mission on the port).
 * ``/state.json`` -- the full state at once (scripts, debugging).
 * ``/map.png`` -- the current occupancy map, grey, north up, one pixel per cell.
 * ``/api/diff?a=N&b=M`` -- a finished site's changes between two sessions.
@@ -57,6 +59,8 @@ class Server:
         self.httpd.daemon_threads = True
         self.port = int(self.httpd.server_address[1])
         self._thread: threading.Thread | None = None
+        self._streams = 0  # event streams open now
+        self._streams_changed = threading.Condition()
 
     @property
     def url(self) -> str:
@@ -69,13 +73,22 @@ class Server:
         return self
 
     def close(self) -> None:
-        """Stop serving; open event streams end within a moment."""
+        """Stop serving; open event streams say "end" (the page shows the mission ended, not a
+        lost connection) and close, waited for up to a second before the process may exit."""
         self.state.close()
+        with self._streams_changed:
+            self._streams_changed.wait_for(lambda: self._streams == 0, timeout=1.0)
         if self._thread is not None:
             self.httpd.shutdown()
             self._thread.join(timeout=5.0)
             self._thread = None
         self.httpd.server_close()
+
+    def count_stream(self, delta: int) -> None:
+        """An event stream opened (+1) or ended (-1)."""
+        with self._streams_changed:
+            self._streams += delta
+            self._streams_changed.notify_all()
 
     def __enter__(self) -> Server:
         return self.start()
@@ -194,6 +207,13 @@ def _handler(server: Server) -> type[BaseHTTPRequestHandler]:
             self.end_headers()
             self.wfile.write(b"retry: 1000\n\n")
             self.wfile.flush()
+            server.count_stream(+1)
+            try:
+                self._stream(state, since)
+            finally:
+                server.count_stream(-1)
+
+        def _stream(self, state: StateStore, since: int | None) -> None:
             sent_any = False
             while not state.closed:
                 version, sections, full = state.changes(since)
@@ -205,5 +225,7 @@ def _handler(server: Server) -> type[BaseHTTPRequestHandler]:
                 if not state.wait(since, KEEPALIVE_S) and not state.closed:
                     self.wfile.write(b": keepalive\n\n")
                     self.wfile.flush()
+            self.wfile.write(b"event: end\ndata: {}\n\n")
+            self.wfile.flush()
 
     return Handler

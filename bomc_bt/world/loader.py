@@ -18,7 +18,7 @@ from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import load_map
 from bomc_bt.world.fields import FieldReader, describe, join
 from bomc_bt.world.records import Change, DuringChange, Obstacle, WorldObject
-from bomc_bt.world.timeline import World, apply_change, entry_key
+from bomc_bt.world.timeline import MAX_SESSION, World, apply_change, entry_key
 from bomc_bt.world.walls import embedded_in_wall
 from bomc_bt.yaml_io import read_yaml
 
@@ -91,8 +91,9 @@ class _Parser(FieldReader):
                             "sessions")
         out: dict[int, Change] = {}
         for key, body in value.items():
-            if isinstance(key, bool) or not isinstance(key, int) or key < 2:
-                raise self.fail(f"session numbers are integers >= 2, got {describe(key)}", "sessions")
+            if isinstance(key, bool) or not isinstance(key, int) or not 2 <= key <= MAX_SESSION:
+                raise self.fail(f"session numbers are integers >= 2, got {describe(key)} (at most {MAX_SESSION})",
+                                "sessions")
             where = f"sessions[{key}]"
             out[key] = self.change(self.mapping({} if body is None else body, where, _CHANGE_KEYS), where)
         return dict(sorted(out.items()))
@@ -103,8 +104,8 @@ class _Parser(FieldReader):
             where = f"during[{i}]"
             m = self.mapping(entry, where, _DURING_KEYS, ("session", "at"))
             session = m["session"]
-            if isinstance(session, bool) or not isinstance(session, int) or session < 1:
-                raise self.fail(f"expected a session number >= 1, got {describe(session)}",
+            if isinstance(session, bool) or not isinstance(session, int) or not 1 <= session <= MAX_SESSION:
+                raise self.fail(f"expected a session number >= 1, got {describe(session)} (at most {MAX_SESSION})",
                                 join(where, "session"))
             at = self.number(m["at"], join(where, "at"))
             if at < 0.0:
@@ -182,7 +183,7 @@ class _Parser(FieldReader):
                     raise self.fail("obstacle lies inside a wall (no free cell under it)",
                                     f"{where}.obstacles[{i}].position")
 
-        for k in range(1, world.last_session + 1):
+        for k in world.mentioned_sessions():  # in order; never every number up to the last
             if k in world.sessions:
                 step(world.sessions[k], f"sessions[{k}]")
             for d in world.during_changes(k):

@@ -29,6 +29,7 @@ from bomc_bt.world.records import Change, DuringChange, Obstacle, WorldObject
 from bomc_bt.world.walls import wall_mask
 
 _PLAIN_KEY = re.compile(r"[\w\-. ]+")
+MAX_SESSION = 1_000_000  # session numbers a world or a site may hold: one pass an hour for over a century
 
 
 @dataclass
@@ -50,6 +51,10 @@ class World:
         """The highest session the file mentions (1 if it has no changes)."""
         return max([1, *self.sessions, *(d.session for d in self.during)])
 
+    def mentioned_sessions(self) -> list[int]:
+        """The session numbers with changes before or during them, in order (1 always)."""
+        return sorted({1, *self.sessions, *(d.session for d in self.during)})
+
     def walls(self) -> np.ndarray:
         """Bool mask like ``grid.data``: occupied or unknown (outside the image is wall too)."""
         return wall_mask(self.grid)
@@ -67,11 +72,15 @@ class World:
         """Objects present when session ``n`` starts (earlier during changes persist)."""
         self._check_session(n)
         state = dict(self.objects)
-        for k in range(2, n + 1):
-            for d in self.during_changes(k - 1):
-                state = apply_change(state, d.change, self.path, f"during[{d.index}]")
+        for k in self.mentioned_sessions():  # what happened in sessions 1..n-1 and before n
+            if k >= n:
+                if k == n and k in self.sessions:
+                    state = apply_change(state, self.sessions[k], self.path, f"sessions[{k}]")
+                break
             if k in self.sessions:
                 state = apply_change(state, self.sessions[k], self.path, f"sessions[{k}]")
+            for d in self.during_changes(k):
+                state = apply_change(state, d.change, self.path, f"during[{d.index}]")
         return state
 
     def ground_truth(self, n: int, at: float | None = None) -> dict[str, WorldObject]:

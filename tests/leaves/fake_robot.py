@@ -42,6 +42,8 @@ class FakeRobot:
         self.handles: list[RequestHandle] = []
         self.frames: list[RGBDFrame] = []
         self.cancelled_all = False
+        self.costmap_clears = 0
+        self.latest_scan: LaserScan | None = None
 
     @property
     def last(self) -> RequestHandle:
@@ -70,7 +72,7 @@ class FakeRobot:
         self.grid = grid
 
     def scan(self) -> LaserScan | None:
-        return None
+        return self.latest_scan
 
     def frame(self) -> RGBDFrame | None:
         return self.frames.pop(0) if self.frames else None
@@ -84,6 +86,9 @@ class FakeRobot:
         self.relocalizations.append((hint, global_search))
         self.handles.append(RequestHandle("matching"))
         return self.handles[-1]
+
+    def clear_costmaps(self) -> None:
+        self.costmap_clears += 1
 
     def cancel_all(self) -> None:
         self.cancelled_all = True

@@ -64,7 +64,9 @@ def frame() -> RGBDFrame:
 def test_perceive_associate_runs_forever_and_processes_each_localized_frame(ctx, robot):
     ctx.perception = CountingPerception()
     leaf = PerceiveAssociate("Perceive", None, ctx)
+    robot.distance_travelled = 2.5
     assert tick(leaf) == Status.RUNNING and ctx.perception.frames == 0  # no frame yet
+    assert ctx.progress.path_length == 2.5  # the progress line and the viewer's header say how far (issue 19)
     robot.frames.append(frame())
     assert tick(leaf) == Status.RUNNING and ctx.perception.frames == 1 == ctx.progress.frames
     assert "2 detections, 1 expected" in leaf.feedback_message

@@ -5,7 +5,7 @@
 "use strict";
 
 const S = {
-  version: 0, sections: {}, connected: false, draws: 0,
+  version: 0, sections: {}, connected: false, ended: false, draws: 0,
   map: { number: 0, img: null },
   collapsed: new Set(),
   site: { session: null, a: null, b: null, diff: null },
@@ -21,6 +21,9 @@ function connect() {
   const es = new EventSource("/events");
   es.onopen = () => setConnected(true);
   es.onerror = () => setConnected(false);
+  // The server says goodbye when its mission (or `bomc view`) ends: the badge turns grey, not
+  // "reconnecting" red; EventSource keeps trying, so a new mission on this port still shows.
+  es.addEventListener("end", () => { S.ended = true; setConnected(false); });
   es.onmessage = (e) => {
     const msg = JSON.parse(e.data);
     setConnected(true);
@@ -33,10 +36,13 @@ function connect() {
 }
 function setConnected(on) {
   S.connected = on;
+  if (on) S.ended = false;
+  const site = S.sections.mode === "site";
   const el = $("conn");
-  el.className = "conn " + (on ? "on" : "off");
-  el.textContent = on ? (S.sections.mode === "site" ? "connected" : "live") : "reconnecting…";
-  document.body.dataset.connected = on ? "yes" : "no";
+  el.className = "conn " + (on ? "on" : S.ended ? "ended" : "off");
+  el.textContent = on ? (site ? "connected" : "live") : S.ended ? (site ? "viewer stopped" : "mission ended")
+    : "reconnecting…";
+  document.body.dataset.connected = on ? "yes" : S.ended ? "ended" : "no";
 }
 
 function render(keys) {
@@ -65,7 +71,7 @@ function renderTree(root) {
     let out = `<li class="node st-${esc(status)}${collapsed ? " collapsed" : ""}" data-path="${path}" data-name="${esc(node.name)}" data-status="${esc(status)}">`;
     out += `<div class="row"><span class="toggle">${toggle}</span><span class="dot"></span><span class="name">${esc(node.name)}</span>`;
     out += `<span class="kind">${esc(node.kind === "behaviour" ? node.type : node.kind)}</span>`;
-    if (node.feedback) out += `<span class="fb">${esc(node.feedback)}</span>`;
+    if (node.feedback) out += `<span class="fb" title="${esc(node.feedback)}">${esc(node.feedback)}</span>`;
     out += "</div>";
     if (kids.length) out += "<ul>" + kids.map((c, i) => html(c, path + "." + i)).join("") + "</ul>";
     return out + "</li>";

@@ -11,6 +11,7 @@ Layout (CONTRACTS.md section 3 fixes the first three entries)::
     current                  the number of the current map generation (absent on old sites)
     generations/<n>/         one build each: map, trajectory, build.json (bomc_bt.generations)
     .lock                    the writer's lock (bomc_bt.site_lock)
+    site.json                building / floor / robot in the central store (bomc_bt.central.identity)
 
 The map, trajectory and build record are *read* from the current generation when the
 site has a ``current`` pointer (it is read once, when the :class:`Site` is made, so one

@@ -1,0 +1,207 @@
+"""Getting unstuck: the leaves of ``trees/recover.yaml`` (``keep_going``).
+
+After each waypoint of the visit loop, ``CheckProgress`` asks :class:`bomc_bt.stuck.StuckWatch`
+whether the pass is still getting somewhere; when waypoint after waypoint failed it writes
+the trigger (``stuck``) and fails, and the tree runs the recovery: ``DiagnoseStuck`` finds
+out why (:func:`bomc_bt.stuck.diagnose`, written to ``stuck_cause``), ``StuckCauseIs``
+picks the branch that acts on it (``BackOutGoal`` + ``NavigateTo``, ``ClearObstacles``,
+``Relocalize``), and ``EndPassEarly`` ends the pass with the diagnosis when rounds with
+no waypoint reached in between are used up. Thresholds are the configuration's
+``recovery`` section.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from py_trees.common import Status
+
+from bomc_bt.geometry import Pose2D
+from bomc_bt.monitoring import MISSED, PENDING
+from bomc_bt.stuck import CAUSES, CUT_OFF, LOST, StuckWatch, diagnose, diagnosis_line
+from bomc_bt.tree.leaf import Leaf
+from bomc_bt.tree.registry import register
+
+ENDED_EARLY = "ended_early"
+"""The session outcome of a pass that gave up on being stuck (the report's ``reason`` says why)."""
+
+
+def watch_of(ctx) -> StuckWatch:
+    """The mission's watch, made on first use (its no-progress clock starts then)."""
+    if ctx.watch is None:
+        ctx.watch = StuckWatch(ctx.now())
+    return ctx.watch
+
+
+@dataclass
+class CheckProgressParams:
+    max_missed: int = 3  # [count] waypoints missed in a row that start a recovery
+    no_progress_time: float = 600.0  # [s] robot time without a waypoint reached that starts one
+
+
+@register("CheckProgress")
+class CheckProgress(Leaf):
+    """Records how the waypoint just finished ended; fails (writing ``stuck``) when the
+    pass stopped getting anywhere, so the recovery runs. A missed waypoint tried again at
+    the end of the loop and missed again does not count (it was blocked before)."""
+
+    Params = CheckProgressParams
+    config_params = {"max_missed": "recovery.max_missed", "no_progress_time": "recovery.no_progress_time"}
+    writes = ("stuck",)
+
+    def update(self) -> Status:
+        ctx = self.context
+        watch = watch_of(ctx)
+        state = ctx.traverse
+        i = state.current if state is not None else None
+        # A missed waypoint's second chance at the end of the loop failing again is expected
+        # (it was blocked the first time): only first attempts count towards being stuck.
+        if i is not None and not (i in state.retried and state.states[i] == MISSED):
+            watch.record(i, state.states[i], ctx.now(), ctx.robot.distance_travelled)
+        why = watch.trigger(ctx.now(), self.params.max_missed, self.params.no_progress_time)
+        if why is None:
+            self.feedback_message = f"getting somewhere ({watch.missed_in_row} missed in a row)"
+            return Status.SUCCESS
+        self.set("stuck", why)
+        self.feedback_message = why
+        return Status.FAILURE
+
+
+@dataclass
+class DiagnoseStuckParams:
+    max_rounds: int = 2  # [count] recovery rounds with no waypoint reached in between
+
+
+@register("DiagnoseStuck")
+class DiagnoseStuck(Leaf):
+    """Finds out why waypoints keep failing (``stuck_cause``); fails when the rounds are used up."""
+
+    Params = DiagnoseStuckParams
+    config_params = {"max_rounds": "recovery.max_rounds"}
+    reads = ("stuck",)
+    writes = ("stuck_cause",)
+
+    def update(self) -> Status:
+        ctx = self.context
+        watch = watch_of(ctx)
+        state = ctx.traverse
+        failed = [_xy(state.waypoint(i)) for i in watch.missed]
+        remaining = [_xy(state.waypoint(i)) for i, s in enumerate(state.states) if s in (PENDING, MISSED)]
+        watch.start_round(ctx.now(), self.get("stuck") or "stuck")
+        moved = watch.moved_since_first_miss(ctx.robot.distance_travelled)
+        found = diagnose(ctx.robot.live_map(), ctx.robot.pose(), ctx.robot.scan(), failed, remaining,
+                         ctx.config.recovery, ctx.config.sim.planner.robot_radius, moved)
+        watch.log[-1].cause, watch.log[-1].detail = found.cause, found.detail
+        self.set("stuck_cause", found)
+        self.feedback_message = str(found)
+        if found.cause == LOST:
+            watch.act("relocalize")
+        if found.cause == CUT_OFF:
+            watch.carry_on()
+            watch.act("none", "carried on: the robot can reach other waypoints")
+        elif watch.rounds > self.params.max_rounds:
+            self.feedback_message = f"{watch.rounds - 1} recovery round(s) did not help: {found}"
+            return Status.FAILURE
+        return Status.SUCCESS
+
+
+def _xy(p: Pose2D) -> tuple[float, float]:
+    return (p.x, p.y)
+
+
+@dataclass
+class StuckCauseIsParams:
+    cause: str = CUT_OFF  # [choice] lost | stale_obstacles | boxed_in | cut_off
+
+    def __post_init__(self) -> None:
+        if self.cause not in CAUSES:
+            raise ValueError(f"cause must be one of {', '.join(CAUSES)}, not {self.cause!r}")
+
+
+@register("StuckCauseIs")
+class StuckCauseIs(Leaf):
+    """Condition: succeeds when the diagnosis (``stuck_cause``) is ``cause``."""
+
+    Params = StuckCauseIsParams
+    reads = ("stuck_cause",)
+
+    def update(self) -> Status:
+        found = self.get("stuck_cause")
+        ok = found is not None and found.cause == self.params.cause
+        self.feedback_message = f"{'yes' if ok else 'no'}: {found.cause if found else 'no diagnosis'}"
+        return Status.SUCCESS if ok else Status.FAILURE
+
+
+@dataclass
+class ClearObstaclesParams:
+    rebuild_time: float = 2.0  # [s] robot time the lidar gets to refill the layer
+
+
+@register("ClearObstacles")
+class ClearObstacles(Leaf):
+    """Clears the navigation's obstacle layer, then waits while the lidar rebuilds it."""
+
+    Params = ClearObstaclesParams
+    config_params = {"rebuild_time": "recovery.rebuild_time"}
+
+    def initialise(self) -> None:
+        self.context.robot.clear_costmaps()
+        self.until = self.context.now() + self.params.rebuild_time
+        watch_of(self.context).act("clear_obstacles")
+
+    def update(self) -> Status:
+        if self.context.now() < self.until:
+            self.feedback_message = "obstacle layer cleared; rebuilding from the lidar"
+            return Status.RUNNING
+        self.feedback_message = "obstacle layer rebuilt"
+        return Status.SUCCESS
+
+
+@dataclass
+class BackOutGoalParams:
+    distance: float = 1.5  # [m] back along the path driven
+
+
+@register("BackOutGoal")
+class BackOutGoal(Leaf):
+    """Writes as the ``goal`` a place ``distance`` back along the way the robot drove in
+    (``ctx.trail``); fails when the robot has not driven that far yet."""
+
+    Params = BackOutGoalParams
+    config_params = {"distance": "recovery.backout_distance"}
+    writes = ("goal",)
+
+    def update(self) -> Status:
+        ctx = self.context
+        pose = ctx.robot.pose()
+        back = None if pose is None else ctx.trail.back((pose.x, pose.y), self.params.distance)
+        if back is None:
+            watch_of(ctx).act("back_out", "nowhere to back out to")
+            self.feedback_message = "no way back recorded"
+            return Status.FAILURE
+        yaw = math.atan2(back[1] - pose.y, back[0] - pose.x)
+        self.set("goal", Pose2D(back[0], back[1], yaw))
+        watch_of(ctx).act("back_out")
+        self.feedback_message = f"back out to ({back[0]:.1f}, {back[1]:.1f})"
+        return Status.SUCCESS
+
+
+@register("EndPassEarly")
+class EndPassEarly(Leaf):
+    """Ends the pass: stops the robot, records the diagnosis as the session's reason, fails."""
+
+    reads = ("stuck_cause", "stuck")
+
+    def update(self) -> Status:
+        ctx = self.context
+        watch = watch_of(ctx)
+        found = self.get("stuck_cause")
+        state = ctx.traverse
+        where = f"waypoint {state.current + 1}/{len(state.states)}" if state and state.current is not None else "start"
+        watch.act("end_pass")
+        ctx.robot.cancel_all()
+        ctx.outcome = ENDED_EARLY
+        ctx.reason = diagnosis_line(found, watch, where) if found else f"pass ended early: {self.get('stuck')}"
+        self.feedback_message = ctx.reason
+        return Status.FAILURE

@@ -1,0 +1,97 @@
+"""Exact resume of a monitor pass: what is committed with its progress, and putting it back.
+
+A killed pass resumed with ``bomc monitor --resume`` must be the uninterrupted pass
+continued, not replayed: an intra-session change applied before the kill stays applied
+(a chair moved during the pass is not put back), robot time goes on from where it was,
+and the detector sees what it would have seen. So every commit of the pass -- each
+frame's graph update (:meth:`Perception.process <bomc_bt.monitoring.Perception.process>`)
+and each waypoint's bookkeeping (:func:`bomc_bt.monitor_pass.save_pass`) -- writes, in the
+same SQLite transaction, a *resume point* (progress key ``resume/<session>``):
+
+* ``robot``: the robot's own state where it can give one (the simulator: robot time,
+  true pose, the world's applied changes, random streams; :mod:`bomc_bt.sim.checkpoint`);
+  a real robot gives none and keeps its own time and place;
+* ``graph``: what the object graph holds in memory only (last seen times, pending
+  misses, move candidates, first sightings; :meth:`ObjectGraph.pass_state`);
+* ``frames`` and ``fov_since``: frames processed and the view polygons since the last
+  coverage snapshot, which the waypoint commit writes (``coverage/<session>``, packed), so
+  the camera's observed area survives the kill too.
+
+The plan's position (``traverse/<session>``) is the waypoint in flight: a resumed pass
+drives on to it from the restored pose. Only the frames after the last commit are lost.
+"""
+
+from __future__ import annotations
+
+import base64
+import zlib
+from typing import Any
+
+import numpy as np
+
+
+def resume_key(session: int) -> str:
+    return f"resume/{session}"
+
+
+def coverage_key(session: int) -> str:
+    return f"coverage/{session}"
+
+
+def resume_point(perception, robot) -> dict[str, Any]:
+    """The pass's state at this moment (see the module docstring)."""
+    checkpoint = getattr(robot, "checkpoint", None)
+    return {
+        "robot": checkpoint() if callable(checkpoint) else None,
+        "graph": perception.graph.pass_state(),
+        "frames": perception.frames,
+        "fov_since": perception.fov_since,
+    }
+
+
+def frame_progress(perception, robot) -> dict[str, Any]:
+    """The progress keys a frame's commit writes."""
+    return {resume_key(perception.session): resume_point(perception, robot)}
+
+
+def waypoint_progress(perception, robot) -> dict[str, Any]:
+    """The progress keys a waypoint's commit writes besides the plan: a coverage snapshot
+    and the resume point (whose list of view polygons starts again after the snapshot)."""
+    perception.fov_since = []
+    return {coverage_key(perception.session): pack_mask(perception.coverage.seen),
+            resume_key(perception.session): resume_point(perception, robot)}
+
+
+def restore_pass(store, session: int, robot, perception) -> bool:
+    """Put a killed pass's saved state back into ``robot`` and ``perception`` (and its
+    graph); False when nothing was saved (the pass was killed before its first commit)."""
+    point = store.get_progress(resume_key(session))
+    if not isinstance(point, dict):
+        return False
+    restore = getattr(robot, "restore", None)
+    if point.get("robot") is not None and callable(restore):
+        restore(point["robot"])
+    removed = {n.id: n for n in store.nodes(include_removed=True) if n.state != "present"}
+    perception.graph.restore_pass_state(point.get("graph") or {}, removed)
+    perception.frames = int(point.get("frames", 0))
+    snapshot = store.get_progress(coverage_key(session))
+    if snapshot is not None:
+        perception.coverage.seen[:] = unpack_mask(snapshot, perception.coverage.seen.shape)
+    for polygon in point.get("fov_since", []):
+        perception.coverage.add(np.asarray(polygon, dtype=float))
+    perception.fov_since = list(point.get("fov_since", []))
+    perception.events = list(store.events(session=session))
+    return point.get("robot") is not None and callable(restore)
+
+
+def pack_mask(mask: np.ndarray) -> str:
+    """A 0/1 mask as compressed text (a monitor map's coverage is mostly runs)."""
+    return base64.b64encode(zlib.compress(np.packbits(mask.astype(bool)).tobytes(), 6)).decode("ascii")
+
+
+def unpack_mask(text: str, shape: tuple[int, ...]) -> np.ndarray:
+    bits = np.frombuffer(zlib.decompress(base64.b64decode(text)), dtype=np.uint8)
+    count = int(np.prod(shape))
+    if bits.size * 8 < count:
+        raise ValueError("the saved coverage does not fit the map")
+    return np.unpackbits(bits)[:count].reshape(shape).astype(np.uint8)

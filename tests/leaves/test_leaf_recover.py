@@ -1,0 +1,172 @@
+"""The recovery leaves (behaviours/recover.py), tick by tick on the scripted robot."""
+
+from __future__ import annotations
+
+from fake_robot import key, tick
+from py_trees.common import Status
+
+from behaviours.recover import (
+    ENDED_EARLY,
+    BackOutGoal,
+    CheckProgress,
+    CheckProgressParams,
+    ClearObstacles,
+    ClearObstaclesParams,
+    DiagnoseStuck,
+    DiagnoseStuckParams,
+    EndPassEarly,
+    StuckCauseIs,
+    StuckCauseIsParams,
+)
+from bomc_bt.geometry import Pose2D
+from bomc_bt.monitoring import MISSED, VISITED, TraversalState
+from bomc_bt.stuck import STALE_OBSTACLES
+from bomc_bt.traversal import TraversalPlan
+
+
+def start_pass(ctx, n: int = 6) -> TraversalState:
+    ctx.plan = TraversalPlan([Pose2D(1.0 + i, 2.0, 0.0) for i in range(n)], euclidean_length=10.0)
+    ctx.traverse = TraversalState(ctx.plan)
+    return ctx.traverse
+
+
+def finish(state: TraversalState, outcome: str, robot=None) -> None:
+    state.mark(state.next(), outcome)
+    if robot is not None:
+        robot.distance_travelled += 3.0  # it drove about, round the detours
+
+
+def test_check_progress_fails_and_says_why_after_three_missed_in_a_row(ctx):
+    state = start_pass(ctx)
+    check = CheckProgress("Making Progress", CheckProgressParams(max_missed=3, no_progress_time=600.0), ctx)
+    finish(state, VISITED)
+    assert tick(check) == Status.SUCCESS
+    for _ in range(2):
+        finish(state, MISSED)
+        assert tick(check) == Status.SUCCESS
+    finish(state, MISSED)
+    assert tick(check) == Status.FAILURE and key("stuck") == "3 waypoints missed in a row"
+
+
+def test_a_missed_waypoint_missed_again_on_its_retry_does_not_count(ctx):
+    state = start_pass(ctx, 3)
+    check = CheckProgress("Making Progress", CheckProgressParams(max_missed=3, no_progress_time=600.0), ctx)
+    for _ in range(3):
+        finish(state, MISSED if state.index < 2 else VISITED)
+        assert tick(check) == Status.SUCCESS
+    for _ in range(2):  # the two missed ones come back once, and fail again
+        finish(state, MISSED)
+        assert tick(check) == Status.SUCCESS
+    assert ctx.watch.missed_in_row == 0
+
+
+def test_check_progress_reads_its_thresholds_from_the_configuration(ctx):
+    ctx.config.recovery.max_missed = 1
+    start_pass(ctx)
+    check = CheckProgress("Making Progress", None, ctx)
+    finish(ctx.traverse, MISSED)
+    assert check.params.max_missed == 1 and tick(check) == Status.FAILURE
+
+
+def test_diagnose_writes_the_cause_and_fails_once_the_rounds_are_used_up(ctx, robot):
+    ctx.config.recovery.max_rounds = 1  # the leaf reads it from the configuration
+    state = start_pass(ctx)
+    for _ in range(3):
+        finish(state, MISSED, robot)
+        CheckProgress("Check", CheckProgressParams(), ctx).tick_once()
+    leaf = DiagnoseStuck("Find Out Why", None, ctx)
+    # an open room, no scan: the map shows a way to the failed waypoints -> the layer is stale
+    assert tick(leaf) == Status.SUCCESS
+    assert key("stuck_cause").cause == STALE_OBSTACLES and ctx.watch.rounds == 1
+    assert ctx.watch.log[0].cause == STALE_OBSTACLES
+    leaf = DiagnoseStuck("Find Out Why", None, ctx)
+    assert tick(leaf) == Status.FAILURE and "1 recovery round(s) did not help" in leaf.feedback_message
+
+
+def test_stuck_cause_is_picks_the_branch_of_the_diagnosis(ctx, robot):
+    finish(start_pass(ctx), MISSED)
+    CheckProgress("Check", CheckProgressParams(), ctx).tick_once()
+    robot.distance_travelled += 3.0
+    DiagnoseStuck("Why", DiagnoseStuckParams(), ctx).tick_once()
+    assert tick(StuckCauseIs("Stale", StuckCauseIsParams(STALE_OBSTACLES), ctx)) == Status.SUCCESS
+    assert tick(StuckCauseIs("Boxed", StuckCauseIsParams("boxed_in"), ctx)) == Status.FAILURE
+
+
+def test_clear_obstacles_clears_once_then_waits_for_the_lidar_to_rebuild(ctx, robot):
+    start_pass(ctx)
+    leaf = ClearObstacles("Clear", ClearObstaclesParams(rebuild_time=2.0), ctx)
+    assert tick(leaf) == Status.RUNNING and robot.costmap_clears == 1
+    robot.advance(1.0)
+    assert tick(leaf) == Status.RUNNING and robot.costmap_clears == 1
+    robot.advance(1.5)
+    assert tick(leaf) == Status.SUCCESS and ctx.watch.log == []  # no round open: nothing to log into
+
+
+def test_back_out_goal_is_back_along_the_way_the_robot_came(ctx, robot):
+    start_pass(ctx)
+    assert tick(BackOutGoal("Way Back", None, ctx)) == Status.FAILURE  # it has not driven anywhere yet
+    for i in range(12):
+        ctx.trail.add((2.0 + 0.25 * i, 5.0))  # drove east along y = 5 to (4.75, 5)
+    robot.place(Pose2D(4.75, 5.0, 0.0))
+    assert tick(BackOutGoal("Way Back", None, ctx)) == Status.SUCCESS
+    goal = key("goal")
+    assert abs(goal.y - 5.0) < 1e-9 and 3.0 <= goal.x <= 3.3  # 1.5 m back, facing where it goes
+
+
+def test_end_pass_early_stops_the_robot_and_records_the_diagnosis(ctx, robot):
+    state = start_pass(ctx)
+    finish(state, MISSED)
+    CheckProgress("Check", CheckProgressParams(), ctx).tick_once()
+    DiagnoseStuck("Why", DiagnoseStuckParams(), ctx).tick_once()  # it never moved: wedged
+    leaf = EndPassEarly("End", None, ctx)
+    assert tick(leaf) == Status.FAILURE and robot.cancelled_all
+    assert ctx.outcome == ENDED_EARLY
+    assert ctx.reason.startswith("pass ended early at waypoint 1/6") and "boxed_in: wedged" in ctx.reason
+
+
+def keep_going_tree(ctx, tmp_path):
+    """The shipped ``keep_going`` subtree (trees/recover.yaml) as a tree of its own."""
+    from bomc_bt.config import resource_dir
+    from bomc_bt.tree.loader import load_tree
+    from bomc_bt.tree.registry import load_registry
+
+    path = tmp_path / "keep_going.yaml"
+    path.write_text("version: 1\ninclude: [recover.yaml]\nroot: {subtree: keep_going}\n")
+    return load_tree(path, load_registry(), ctx, clock=ctx.now, extra_search_paths=[resource_dir("trees")])
+
+
+def run_once(root, robot, limit: int = 200):
+    """Tick ``root`` until it is no longer RUNNING (the scripted robot's clock advancing)."""
+    for _ in range(limit):
+        root.tick_once()
+        if root.status != Status.RUNNING:
+            return root.status
+        robot.step()
+    raise AssertionError("the subtree kept running")
+
+
+def test_the_shipped_recovery_clears_a_stale_layer_then_ends_the_pass_when_nothing_helps(ctx, robot, tmp_path):
+    """Tick-simulation of Keep Going on the scripted robot: three missed waypoints start a
+    round (stale layer: cleared, the pass goes on); a waypoint reached resets it; rounds
+    with nothing reached in between end the pass with the diagnosis."""
+    root = keep_going_tree(ctx, tmp_path)
+    state = start_pass(ctx, 14)
+    outcomes = []
+    for _ in range(3):
+        finish(state, MISSED, robot)
+        outcomes.append(run_once(root, robot))
+    assert outcomes == [Status.SUCCESS] * 3 and robot.costmap_clears == 1  # round 1: clear, go on
+    assert ctx.watch.log[0].action == "clear_obstacles" and ctx.outcome == ""
+    finish(state, VISITED, robot)  # it helped: a waypoint reached
+    assert run_once(root, robot) == Status.SUCCESS and ctx.watch.log[0].result.startswith("waypoint 4 reached")
+    for _ in range(6):  # two more rounds (max_rounds: 2), nothing reached in between: both act
+        finish(state, MISSED, robot)
+        assert run_once(root, robot) == Status.SUCCESS
+    assert robot.costmap_clears == 3 and ctx.outcome == ""
+    for _ in range(3):  # a third round is one too many
+        finish(state, MISSED, robot)
+        last = run_once(root, robot)
+    assert last == Status.FAILURE and robot.costmap_clears == 3
+    assert ctx.outcome == ENDED_EARLY and robot.cancelled_all
+    assert ctx.reason.startswith("pass ended early at waypoint 13/14 after 2 recovery round(s) (clear_obstacles): "
+                                 "stale_obstacles")
