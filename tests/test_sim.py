@@ -259,6 +259,21 @@ def test_during_change_moves_an_object_at_its_time():
     assert not robot.scene.is_solid(2.0, 2.0) and robot.scene.is_solid(4.0, 2.0)
 
 
+def test_a_chair_is_not_set_down_on_the_robot_it_waits_until_the_robot_has_gone():
+    """lab-b session 3 once moved a chair onto the robot at 40 s: wedged inside it, the
+    robot missed every waypoint left. The move is held back until the robot is clear."""
+    chair = WorldObject("chair-1", "chair", (4.0, 3.0, 0.45), (0.5, 0.5, 0.9))
+    during = [DuringChange(1, 0.5, Change(move={"chair-1": (1.1, 1.0)}))]
+    world = make_world(room_data(6.0, 4.0), Pose2D(1.0, 1.0, 0.0), [chair], during=during)
+    robot = SimRobot(world, 1, seed=0)
+    while robot.now() < 1.0:
+        robot.step()
+    assert robot.current_objects()["chair-1"].position[:2] == (4.0, 3.0)  # not on the robot
+    handle = robot.navigate(Pose2D(3.0, 1.0, 0.0))
+    assert run_until_done(robot, handle) is Status.SUCCEEDED
+    assert robot.current_objects()["chair-1"].position[:2] == (1.1, 1.0)  # set down once it had gone
+
+
 def trajectory(seed: int) -> list[tuple[float, float, float]]:
     params = SimParams(faults=FaultParams(people=3))
     robot = SimRobot(load_world(LAB_B), 1, params, seed=seed)

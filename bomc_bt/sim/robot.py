@@ -39,7 +39,7 @@ from bomc_bt.sim.navigation import NavHandle, Navigator
 from bomc_bt.sim.params import SimParams
 from bomc_bt.sim.planning import SimPlanners
 from bomc_bt.sim.scene import Scene
-from bomc_bt.world import World, WorldObject, apply_change
+from bomc_bt.world import World, WorldObject, apply_change, lands_on
 
 
 class RelocHandle(RequestHandle):
@@ -172,6 +172,8 @@ class SimRobot:
 
     def _apply_during(self, now: float) -> None:
         while self._pending and self._pending[0].at <= now + 1e-9:
+            if lands_on(self._pending[0].change, self._objects, self._true.xy, self.params.motion.body_radius + 0.1):
+                return  # held back until the robot has moved clear (world/timeline.py)
             self._apply_next_during()
 
     def _apply_next_during(self) -> None:

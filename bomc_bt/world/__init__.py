@@ -12,7 +12,7 @@ The public face of the package; import from here. The parts, one job each:
 
 from bomc_bt.world.loader import DEFAULT_WALL_HEIGHT, FORMAT_VERSION, load_world
 from bomc_bt.world.records import Change, DuringChange, Obstacle, WorldObject
-from bomc_bt.world.timeline import World, apply_change
+from bomc_bt.world.timeline import World, apply_change, lands_on
 from bomc_bt.world.walls import embedded_in_wall, wall_mask
 
 __all__ = [
@@ -24,6 +24,7 @@ __all__ = [
     "World",
     "WorldObject",
     "apply_change",
+    "lands_on",
     "embedded_in_wall",
     "load_world",
     "wall_mask",

@@ -11,6 +11,9 @@ Timeline semantics (one rule, used by the loader's checks and by every query):
   may remove a name and add a new object under it, but cannot move what it removed.
 * Unlabelled ``obstacles`` of ``sessions[k]`` are present for session *k* only; those of a
   during change appear at its ``at`` and last until the end of that session.
+* The simulator holds back a during change that would put a box where the robot stands
+  (:func:`lands_on`) until the robot has moved clear: nobody sets a chair down on a robot,
+  and a robot inside a box could never drive out of it.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from bomc_bt.errors import BomcError
@@ -145,3 +149,14 @@ def entry_key(key: Any) -> str:
     text = str(key)
     return text if _PLAIN_KEY.fullmatch(text) else repr(text)
 
+
+
+def lands_on(change: Change, objects: dict[str, WorldObject], xy: tuple[float, float], radius: float) -> bool:
+    """Would ``change`` put a box (an object moved or added, an obstacle) within ``radius``
+    of the point ``xy`` (the robot's centre)? ``objects``: what stands before the change."""
+    boxes = [obj.footprint() for obj in apply_change(objects, Change(change.remove, change.move, change.add)).values()
+             if obj.name in change.move or any(obj is added for added in change.add)]
+    boxes += [obstacle.footprint() for obstacle in change.obstacles]
+    point = (float(xy[0]), float(xy[1]))
+    # pointPolygonTest: signed distance to the outline, positive inside
+    return any(cv2.pointPolygonTest(box.astype(np.float32), point, True) > -radius for box in boxes)

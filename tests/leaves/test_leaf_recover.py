@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from fake_robot import key, tick
 from py_trees.common import Status
 
@@ -18,10 +19,18 @@ from behaviours.recover import (
     StuckCauseIs,
     StuckCauseIsParams,
 )
+from bomc_bt.algorithm_params import RecoveryParams
 from bomc_bt.geometry import Pose2D
 from bomc_bt.monitoring import MISSED, VISITED, TraversalState
 from bomc_bt.stuck import STALE_OBSTACLES
 from bomc_bt.traversal import TraversalPlan
+
+
+@pytest.fixture(autouse=True)
+def recovery_on(ctx):
+    """The recovery is opt-in (README: Recovery); these tests run it as an operator turns it on."""
+    ctx.config.recovery = RecoveryParams(max_missed=3, no_progress_time=600.0, min_agreement=0.4,
+                                         wedged_distance=0.5)
 
 
 def start_pass(ctx, n: int = 6) -> TraversalState:
