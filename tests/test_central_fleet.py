@@ -213,3 +213,40 @@ def test_two_robots_alternating_six_passes_through_postgresql_build_one_robots_g
     assert files == {name: sha256(path.read_bytes()) for name, path in local_files(generation).items()}
     skip = (".lock", "site.db", "site.db-wal", "site.db-shm", "site.json")
     assert snapshot(tmp_path / "B", skip=skip) == snapshot(alone, skip=skip)
+
+
+class Killed(BaseException):
+    """Raised from a tick hook: the robot's process dies between two ticks (as in test_exact_resume)."""
+
+
+def killed_at(robot_time: float):
+    def hook(runner) -> None:
+        if runner.robot.now() >= robot_time:
+            raise Killed
+    return hook
+
+
+@pytest.mark.slow
+def test_a_pass_killed_on_one_robot_is_resumed_by_another_as_by_itself(office, tmp_path, central_url):
+    """Robot A dies half-way through pass 1 and syncs what it saved; robot B pulls and resumes the
+    pass: the central graph is the one A would have made by resuming the pass itself."""
+    world, config = office["world"], office["config"]
+    a = copy_site(office["built"], tmp_path / "A")
+    sync_site(a, central_url, building="hq", floor="3", robot="A")
+    with pytest.raises(Killed):
+        run.run_monitor(world, a, 1, seed=1, config=config, hooks=[killed_at(60.0)])
+    itself = copy_site(a, tmp_path / "itself")
+    (itself / "site.json").unlink()  # A's own resume, off the fleet: the reference
+    assert run.run_monitor(world, itself, 1, seed=1, config=config, resume=True).succeeded
+    sync_site(a, central_url)  # the half pass: its session row, its history, its resume state
+    pull_site(tmp_path / "B", central_url, "hq", "3", "B")
+    resumed = run.run_monitor(world, tmp_path / "B", 1, seed=1, config=config, resume=True)
+    assert resumed.succeeded and resumed.context.restored
+    sync_site(tmp_path / "B", central_url)
+    expected = read_local(itself / "site.db")
+    with psycopg.connect(central_url) as conn:
+        got = read_central(conn, ("hq", "3", 1))
+    assert (got.nodes, got.node_history, got.progress) == (expected.nodes, expected.node_history, expected.progress)
+    assert wall_times_dropped(got.sessions) == wall_times_dropped(expected.sessions)
+    skip = (".lock", "site.db", "site.db-wal", "site.db-shm", "site.json")
+    assert snapshot(tmp_path / "B", skip=skip) == snapshot(itself, skip=skip)
