@@ -4,9 +4,17 @@ The site is written through the real store API (:class:`bomc_bt.store.SiteStore`
 objects (the Environment A mix at 93 x 90 m), 20 sessions, each a pass of frames in which
 every present node is re-seen ``--updates`` times (an ``updated`` event each), 5 % of the
 movable ones removed, moved or added, and closed by ``end_session`` (reconciliation,
-counts, report); the map is a generated 93 x 90 m office (1860 x 1800 cells), the
-trajectory 10,000 poses, each session a 50 kB report and a 200 kB picture. The server is
-the tests' (``tests/postgres_server.py``: initdb + pg_ctl in a temporary folder).
+counts, report); the map is a generated 93 x 90 m office (1860 x 1800 cells, 3.3 MB), the
+trajectory 10,000 poses, each session a 50 kB report, a 600 kB picture and a new 60 kB
+plan. The server is the tests' (``tests/postgres_server.py``: initdb + pg_ctl in a
+temporary folder).
+
+Sized after a real Environment-A-size site (the generated 93 x 90 m office, seed 31,
+three passes with the default detector): 439 node ids, 1,300-1,700 history rows per
+pass, a 3.4 MB map, 9,900 trajectory poses, 600 kB of report per session, a 57 kB plan.
+With ``--updates 6`` a synthetic pass writes about 2,600 history rows: more than a real
+one, so the time is an upper bound. Acceptance (issue 22): the first, full sync of 20
+sessions under 10 s on loopback.
 
 Rows: the first (full) sync, a sync after one more pass (incremental), a sync with
 nothing new, and the central's row counts.
@@ -69,7 +77,8 @@ def write_pass(store: SiteStore, site: Path, number: int, nodes: dict[int, Node]
     folder = site / "sessions" / str(number)
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "report.json").write_text(json.dumps({"pad": "x" * 50_000}))
-    (folder / "semantic_map.png").write_bytes(os.urandom(200_000))
+    (folder / "semantic_map.png").write_bytes(os.urandom(600_000))
+    (site / "plan.json").write_text(json.dumps({"session": number, "pad": "x" * 60_000}))
 
 
 def make_site(site: Path, sessions: int, updates: int) -> tuple[SiteStore, dict[int, Node]]:
@@ -107,12 +116,16 @@ def main() -> None:
             print(f"site written in {time.perf_counter() - t0:.1f} s: {len(store.events())} history rows, "
                   f"{len(store.nodes(include_removed=True))} node ids, {args.sessions} sessions")
             print(f"{'sync':<24} {'wall s':>7}  pushed")
+            times = {}
             for label in ("first (full)", "after one more pass", "nothing new"):
                 if label == "after one more pass":
                     write_pass(store, site, args.sessions + 1, nodes, np.random.default_rng(1), args.updates)
                 t0 = time.perf_counter()
                 result = sync_site(site, url, building="env-a", floor="1", robot="bench")
-                print(f"{label:<24} {time.perf_counter() - t0:>7.2f}  {result.pushed or 'nothing'}")
+                times[label] = time.perf_counter() - t0
+                print(f"{label:<24} {times[label]:>7.2f}  {result.pushed or 'nothing'}")
+            verdict = "met" if times["first (full)"] < 10 else "NOT met"
+            print(f"acceptance (full sync of {args.sessions} sessions < 10 s): {verdict}")
             store.close()
     finally:
         stop_server(server)

@@ -9,10 +9,10 @@ with the perfect detector: a build and a pass take seconds.
 from __future__ import annotations
 
 import json
-import shutil
 
 import psycopg
 import pytest
+from central_sites import central_state, lab_site, lab_site_2, monitor, perfect, run_pass_2  # noqa: F401  (fixtures)
 from postgres_server import central_url, postgres  # noqa: F401  (fixtures)
 from site_files import LAB_B, bomc, copy_site, error_line
 
@@ -21,63 +21,6 @@ from bomc_bt.central import schema
 from bomc_bt.central.rows import read_central, read_local
 from bomc_bt.central.sync import sync_site
 from bomc_bt.store import SiteStore
-
-TABLES = ("floors", "generations", "sessions", "nodes", "node_history", "progress", "files", "leases")
-
-
-@pytest.fixture(scope="module")
-def perfect(tmp_path_factory):
-    path = tmp_path_factory.mktemp("cfg") / "perfect.yaml"
-    path.write_text("detector: {preset: perfect}\n")
-    return path
-
-
-@pytest.fixture(scope="module")
-def lab_site(tmp_path_factory, perfect, shared):
-    """lab-b built and monitored in session 1 (the state every test starts from: copy it)."""
-    site = tmp_path_factory.mktemp("lab") / "site"
-    config = run.build_config([str(perfect)])
-    run.run_build(LAB_B, site, seed=0, config=config)
-    assert run.run_monitor(LAB_B, site, 1, seed=1, config=config).succeeded
-    return site
-
-
-@pytest.fixture(scope="module")
-def lab_site_2(lab_site, perfect, tmp_path_factory):
-    """``lab_site`` after pass 2 (seed 2): what the same site holds once its next pass ran."""
-    site = copy_site(lab_site, tmp_path_factory.mktemp("lab2") / "site")
-    assert run.run_monitor(LAB_B, site, 2, seed=2, config=run.build_config([str(perfect)])).succeeded
-    return site
-
-
-def run_pass_2(site, lab_site_2) -> None:
-    """Give ``site`` (a copy of lab_site) what its pass 2 writes: the graph, the reports, the plan.
-
-    Passes are deterministic for a seed, so this is the pass's own result, without paying
-    for the simulation in every test."""
-    for name in ("site.db-wal", "site.db-shm"):
-        (site / name).unlink(missing_ok=True)
-    for name in ("site.db", "plan.json"):
-        shutil.copy2(lab_site_2 / name, site / name)
-    shutil.copytree(lab_site_2 / "sessions", site / "sessions", dirs_exist_ok=True)
-
-
-def monitor(site, session: int, perfect) -> object:
-    return bomc("monitor", "--world", str(LAB_B), "--site", str(site), "--session", str(session), "--seed",
-                str(session), "--quiet", "--config", str(perfect))
-
-
-def central_state(url: str) -> dict[str, list[tuple]]:
-    """Every row of the central tables, sorted (the sync log and timestamps of first sync left out)."""
-    with psycopg.connect(url) as conn:
-        out = {}
-        for table in TABLES:
-            cols = [r[0] for r in conn.execute(
-                "SELECT column_name FROM information_schema.columns WHERE table_schema = 'bomc' AND table_name = %s"
-                " ORDER BY ordinal_position", (table,)).fetchall() if r[0] not in ("first_synced",)]
-            out[table] = sorted(map(tuple, conn.execute(f"SELECT {', '.join(cols)} FROM bomc.{table}").fetchall()),
-                                key=repr)
-        return out
 
 
 def central_rows(url: str, building: str, floor: str, generation: int = 1):
