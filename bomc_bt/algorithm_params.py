@@ -191,16 +191,12 @@ class RecoveryParams:
     """When a monitor pass that keeps failing waypoints looks for why, and what it tries
     (:mod:`bomc_bt.stuck`, ``trees/recover.yaml``)."""
 
-    # [count] waypoints missed in a row that start a recovery round; 0 (default): never. Opt in
-    # (3 is a good value): on lab-b it still ends passes whose last waypoints are merely unreachable
-    max_missed: int = 0
-    no_progress_time: float = 0.0  # [s] robot time without reaching a waypoint that starts one; 0 (default): never
+    max_missed: int = 3  # [count] waypoints missed in a row that start a recovery round; 0: never
+    no_progress_time: float = 600.0  # [s] robot time without reaching a waypoint that starts one; 0: never
     max_rounds: int = 2  # [count] recovery rounds with no waypoint reached in between before the pass ends early
     obstacle_range: float = 4.0  # [m] scan returns nearer than this count as obstacles in the diagnosis
     on_map_distance: float = 0.2  # [m] a scan return this near a wall of the saved map lies on the map
-    # [-] share of scan returns on the map below which the pose is lost; 0 (default) turns the
-    # check off: on lab-b it read 0 % at the true pose, so a lost pose is left to Relocalize
-    min_agreement: float = 0.0
+    min_agreement: float = 0.4  # [-] share of scan returns on the map's walls below which the pose is lost; 0: off
     # [m] driven while waypoints failed, below which the robot is wedged; 0 (default): off, since
     # waypoints that fail at once (no plan) also leave the robot where it was
     wedged_distance: float = 0.0

@@ -28,7 +28,7 @@ from bomc_bt.traversal import TraversalPlan
 
 @pytest.fixture(autouse=True)
 def recovery_on(ctx):
-    """The recovery is opt-in (README: Recovery); these tests run it as an operator turns it on."""
+    """The defaults, with the opt-in wedged check on (README: When a monitor pass gets stuck)."""
     ctx.config.recovery = RecoveryParams(max_missed=3, no_progress_time=600.0, min_agreement=0.4,
                                          wedged_distance=0.5)
 
