@@ -17,7 +17,9 @@ One record per line, compact keys (``k`` the kind, ``t`` the robot time in s)::
                                                             a frame's detections (pixel boxes) and their map points
     {"k":"ev","t":1.6,"e":[[kind,id,cat,x,y,fx,fy],...]}    graph events (fx, fy: where a moved node was)
 
-Statuses are one letter: ``s`` success, ``f`` failure, ``r`` running, ``i`` invalid.
+Events are the pass's association's (``Perception.events``); the ``updated`` rows the store
+adds when a session ends, to square its history with the nodes, are bookkeeping and not in
+the timeline. Statuses are one letter: ``s`` success, ``f`` failure, ``r`` running, ``i`` invalid.
 A resumed pass appends a new ``head``; the records of the killed run after the resume
 time are dropped on reading (the resumed pass goes on from its last commit, so robot
 time repeats); a ``head`` that is not a resume starts the file's content afresh (a pass
