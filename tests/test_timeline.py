@@ -105,8 +105,15 @@ def test_a_torn_last_line_is_skipped_and_a_fresh_start_replaces_a_dead_run(tmp_p
         f.write(b'{"k":"pose","t":2.0,"p":[2.0,')  # a kill in the middle of a line
     timeline = read_timeline(path, 3)
     assert [p["t"] for p in timeline.poses] == [0.5, 1.0, 1.5] and timeline.skipped == 1
+    resumed = TimelineWriter(path)  # the resumed pass's head starts a line of its own
+    resumed.write({"k": "head", "v": 1, "session": 3, "t": 1.0, "resume": True})
+    resumed.write({"k": "pose", "t": 1.1, "p": [5.0, 0.0, 0.0]})
+    resumed.close()
+    timeline = read_timeline(path, 3)
+    assert [p["t"] for p in timeline.poses] == [0.5, 1.0, 1.1] and timeline.resumes == 1
+    assert timeline.skipped == 1
     with open(path, "ab") as f:  # the pass starts again from scratch (killed before its session opened)
-        f.write(b'\n{"k":"head","v":1,"session":3,"t":0.0,"resume":false}\n{"k":"pose","t":0.5,"p":[9,9,0]}\n')
+        f.write(b'{"k":"head","v":1,"session":3,"t":0.0,"resume":false}\n{"k":"pose","t":0.5,"p":[9,9,0]}\n')
     assert [p["p"] for p in read_timeline(path, 3).poses] == [[9, 9, 0]]
     path.write_bytes(b'{"k":"pose","t":0.5}\n')
     with pytest.raises(BomcError, match="not a timeline"):

@@ -53,6 +53,8 @@ class TimelineWriter:
         self.wall_clock = wall_clock
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file = open(self.path, "ab")  # noqa: SIM115 - kept open for the pass
+        if self._file.tell() > 0 and not _ends_with_newline(self.path):
+            self._file.write(b"\n")  # a killed run's torn last line stays a line of its own
         self._last_flush = wall_clock()
         self.records = 0
         self._encode = json.JSONEncoder(separators=(",", ":"), allow_nan=False).encode
@@ -169,6 +171,12 @@ def _add(timeline: Timeline, record: dict[str, Any]) -> None:
                                 "d": record.get("d") or [], "o": record.get("o") or []})
     elif kind == "ev" and isinstance(record.get("e"), list):
         timeline.events.append({"t": record["t"], "e": record["e"]})
+
+
+def _ends_with_newline(path: Path) -> bool:
+    with open(path, "rb") as f:
+        f.seek(-1, os.SEEK_END)
+        return f.read(1) == b"\n"
 
 
 def timeline_path(session_dir: Path) -> Path:

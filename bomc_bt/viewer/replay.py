@@ -32,16 +32,7 @@ class ReplayApi:
         self._lock = threading.Lock()
 
     def routes(self) -> dict[str, Any]:
-        return {"/api/timeline": self.timeline, "/api/timelines": self.available}
-
-    def available(self, query: Query) -> dict[str, Any]:
-        """The sessions that have a recorded timeline."""
-        if self.view.central is not None:
-            return {"sessions": []}
-        from bomc_bt.timeline import timeline_path
-
-        numbers = [r.number for r in self.view.records]
-        return {"sessions": [n for n in numbers if timeline_path(self.view.site.session_dir(n)).is_file()]}
+        return {"/api/timeline": self.timeline}
 
     def timeline(self, query: Query) -> dict[str, Any]:
         number = _session(query)
