@@ -325,8 +325,8 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         timeline = TimelineRecorder.open(ctx)  # sessions/<n>/timeline.jsonl for replay; None when off
         try:
             result = run_tree(ctx, Path(tree) if tree else default_tree("monitor"), quiet=quiet, stream=stream,
-                              max_time=max_time, hooks=[*hooks, *factory.mission_hooks(ctx), *filter(None, [timeline])],
-                              context_hooks=context_hooks, on_interrupt=_pass_interrupted)
+                              max_time=max_time, context_hooks=context_hooks, on_interrupt=_pass_interrupted,
+                              hooks=[*hooks, *factory.mission_hooks(ctx), *([timeline] if timeline else [])])
         except MissionFailed as exc:
             _pass_failed(ctx, exc)
             raise

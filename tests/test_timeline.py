@@ -11,9 +11,13 @@ from __future__ import annotations
 
 import json
 import shutil
+import signal
+import subprocess
+import time
 
 import pytest
 from replay_site import make_replay_site, status_at, timeline_records
+from site_files import REPO, bomc_command, bomc_env
 
 from bomc_bt import run
 from bomc_bt.errors import BomcError
@@ -94,6 +98,36 @@ def test_a_killed_and_resumed_pass_leaves_one_timeline_without_repeats(office, t
     assert [(row[0], row[1]) for ev in timeline.events for row in ev["e"]] == stored
 
 
+def test_kill_9_mid_pass_leaves_earlier_sessions_untouched_and_the_resume_continues_the_file(office, tmp_path):
+    site = shutil.copytree(office["site"], tmp_path / "site")
+    session_1 = {p.name: p.read_bytes() for p in (site / "sessions" / "1").iterdir()}
+    (tmp_path / "flush.yaml").write_text("mission: {timeline_flush_period: 0}\n")  # every record on disk at once
+    args = ("monitor", "--world", str(office["world"]), "--site", str(site), "--session", "2", "--seed", "2",
+            "--quiet", "--config", str(tmp_path / "flush.yaml"))
+    path = site / "sessions" / "2" / "timeline.jsonl"
+    proc = subprocess.Popen(bomc_command(*args), cwd=REPO, env=bomc_env(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while (not path.exists() or path.stat().st_size < 15000) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    assert proc.returncode == -signal.SIGKILL, "the pass ended before it could be killed"
+    assert {p.name: p.read_bytes() for p in (site / "sessions" / "1").iterdir()} == session_1
+    killed = read_timeline(path, 2)
+    assert killed.poses and killed.skipped <= 1
+    resumed = subprocess.run(bomc_command(*args, "--resume"), capture_output=True, text=True, cwd=REPO,
+                             env=bomc_env(), timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    timeline = read_timeline(path, 2)
+    assert timeline.resumes == 1 and timeline.skipped <= 1
+    times = [p["t"] for p in timeline.poses]
+    assert times == sorted(times) and len(set(times)) == len(times)
+    report = json.loads((site / "sessions" / "2" / "report.json").read_text())
+    assert timeline.end == pytest.approx(report["sim_time_s"], abs=0.11)
+    assert {p.name: p.read_bytes() for p in (site / "sessions" / "1").iterdir()} == session_1
+
+
 def test_a_torn_last_line_is_skipped_and_a_fresh_start_replaces_a_dead_run(tmp_path):
     path = tmp_path / "timeline.jsonl"
     writer = TimelineWriter(path, flush_period=0.0)
@@ -110,7 +144,7 @@ def test_a_torn_last_line_is_skipped_and_a_fresh_start_replaces_a_dead_run(tmp_p
     resumed.write({"k": "pose", "t": 1.1, "p": [5.0, 0.0, 0.0]})
     resumed.close()
     timeline = read_timeline(path, 3)
-    assert [p["t"] for p in timeline.poses] == [0.5, 1.0, 1.1] and timeline.resumes == 1
+    assert [p["t"] for p in timeline.poses] == [0.5, 1.1] and timeline.resumes == 1  # from 1.0 on: the resumed run
     assert timeline.skipped == 1
     with open(path, "ab") as f:  # the pass starts again from scratch (killed before its session opened)
         f.write(b'{"k":"head","v":1,"session":3,"t":0.0,"resume":false}\n{"k":"pose","t":0.5,"p":[9,9,0]}\n')

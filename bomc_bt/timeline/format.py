@@ -20,9 +20,9 @@ One record per line, compact keys (``k`` the kind, ``t`` the robot time in s)::
 Events are the pass's association's (``Perception.events``); the ``updated`` rows the store
 adds when a session ends, to square its history with the nodes, are bookkeeping and not in
 the timeline. Statuses are one letter: ``s`` success, ``f`` failure, ``r`` running, ``i`` invalid.
-A resumed pass appends a new ``head``; the records of the killed run after the resume
-time are dropped on reading (the resumed pass goes on from its last commit, so robot
-time repeats); a ``head`` that is not a resume starts the file's content afresh (a pass
+A resumed pass appends a new ``head``; the records of the killed run from the resume
+time on are dropped on reading, but for the frame and events committed at that time (the
+resumed pass goes on from its last commit, so robot time repeats); a ``head`` that is not a resume starts the file's content afresh (a pass
 killed before it opened its session runs again from the start).
 """
 
@@ -148,12 +148,19 @@ def _drop_replayed(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
     kept: list[dict[str, Any]] = []
     for record in records:
         if record["k"] == "head" and kept:
-            if not record.get("resume"):
-                kept = []
-            else:
-                kept = [r for r in kept if r["t"] <= record["t"] or r["k"] in ("head", "tree")]
+            kept = [r for r in kept if _before_resume(r, record["t"])] if record.get("resume") else []
         kept.append(record)
     return kept
+
+
+def _before_resume(record: dict[str, Any], t: float) -> bool:
+    """Whether the killed run's ``record`` stands before a pass resumed at robot time ``t``.
+
+    The resumed pass starts from its last commit, at ``t``: the frame committed then and its
+    events stay (the resumed pass does not see them again), the tree and the pose at ``t``
+    are written again by its first tick.
+    """
+    return record["t"] < t or record["k"] in ("head", "tree") or (record["t"] == t and record["k"] in ("frame", "ev"))
 
 
 def _add(timeline: Timeline, record: dict[str, Any]) -> None:
