@@ -3,8 +3,9 @@
 Builds the world once, then runs monitor session 1 on fresh copies of the built site,
 alternately with the timeline recorded (``mission.timeline: true``, the default) and
 without (``mission.timeline: false``), ``--repeats`` times each, and prints the wall time
-of each mode and their ratio. On a shared machine the wall times of two runs differ by
-more than the recorder costs, so a last pass, without the built-in recorder, runs the same
+and CPU time (this process's) of each mode and their ratios. On a shared machine the wall
+times of two runs differ by more than the recorder costs (CPU time less so), so a last
+pass, without the built-in recorder, runs the same
 :class:`~bomc_bt.timeline.TimelineRecorder` as an extra tick hook and times the hook
 itself: its own share of the pass is the number to compare with 5 %.
 
@@ -41,14 +42,14 @@ class TimedRecorder(TimelineRecorder):
 
 
 def one_pass(world: Path, built: Path, work: Path, name: str, seed: int, record: bool,
-             hooks: list = ()) -> tuple[float, Path]:
+             hooks: list = ()) -> tuple[float, float, Path]:
     site = work / name
     shutil.copytree(built, site)
     config = run.build_config()
     config.mission.timeline = record
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     run.run_monitor(world, site, 1, seed=seed, config=config, context_hooks=list(hooks))
-    return time.perf_counter() - start, site
+    return time.perf_counter() - start, time.process_time() - cpu, site
 
 
 def timed_hook(ctx) -> TimedRecorder:
@@ -69,30 +70,37 @@ def main() -> None:
         built = work / "built"
         run.run_build(args.world, built, seed=args.seed)
         walls: dict[bool, list[float]] = {True: [], False: []}
+        cpus: dict[bool, list[float]] = {True: [], False: []}
         size = records = 0
         for i in range(args.repeats):
             for record in ((True, False) if i % 2 == 0 else (False, True)):
-                wall, site = one_pass(args.world, built, work, f"run-{i}-{int(record)}", args.seed, record)
+                wall, cpu, site = one_pass(args.world, built, work, f"run-{i}-{int(record)}", args.seed, record)
                 walls[record].append(wall)
+                cpus[record].append(cpu)
                 if record:
                     path = timeline_path(site / "sessions" / "1")
                     size, timeline = path.stat().st_size, read_timeline(path, 1)
                     records = len(timeline.status) + len(timeline.poses) + len(timeline.frames) + len(timeline.events)
                     end = timeline.end
         TimedRecorder.spent = 0.0
-        hooked_wall, _ = one_pass(args.world, built, work, "timed", args.seed, False, [timed_hook])
+        hooked_wall, _, _ = one_pass(args.world, built, work, "timed", args.seed, False, [timed_hook])
     on, off = statistics.median(walls[True]), statistics.median(walls[False])
     print(f"world {args.world.name}, seed {args.seed}, {args.repeats} passes per mode, {end:.0f} s robot time each")
     print(f"timeline: {size / 1024:.0f} KiB, {records} records\n")
-    print("| mode | passes | median wall s | min wall s | max wall s |")
-    print("| --- | --- | --- | --- | --- |")
+    print("| mode | passes | median wall s | min wall s | max wall s | median CPU s | min CPU s |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for record, label in ((False, "timeline off"), (True, "timeline on")):
-        w = walls[record]
-        print(f"| {label} | {len(w)} | {statistics.median(w):.2f} | {min(w):.2f} | {max(w):.2f} |")
-    print(f"\nratio on / off (median wall): {on / off:.3f}  ({100 * (on / off - 1):+.1f} %)")
+        w, c = walls[record], cpus[record]
+        print(f"| {label} | {len(w)} | {statistics.median(w):.2f} | {min(w):.2f} | {max(w):.2f} | "
+              f"{statistics.median(c):.2f} | {min(c):.2f} |")
+    cpu_on, cpu_off = statistics.median(cpus[True]), statistics.median(cpus[False])
+    print(f"\nratio on / off, median wall: {on / off:.3f} ({100 * (on / off - 1):+.1f} %), "
+          f"median CPU: {cpu_on / cpu_off:.3f} ({100 * (cpu_on / cpu_off - 1):+.1f} %), "
+          f"min CPU: {min(cpus[True]) / min(cpus[False]):.3f}")
     print(f"recorder's own time in a pass: {TimedRecorder.spent:.3f} s = "
-          f"{100 * TimedRecorder.spent / off:.2f} % of the median pass without it ({off:.2f} s; "
-          f"that timed pass took {hooked_wall:.2f} s)  (limit 5 %)")
+          f"{100 * TimedRecorder.spent / off:.2f} % of the median wall time of a pass without it ({off:.2f} s), "
+          f"{100 * TimedRecorder.spent / cpu_off:.2f} % of its CPU time ({cpu_off:.2f} s)  (limit 5 %; "
+          f"that timed pass took {hooked_wall:.2f} s)")
 
 
 if __name__ == "__main__":
