@@ -19,11 +19,14 @@ One record per line, compact keys (``k`` the kind, ``t`` the robot time in s)::
 
 Events are the pass's association's (``Perception.events``); the ``updated`` rows the store
 adds when a session ends, to square its history with the nodes, are bookkeeping and not in
-the timeline. Statuses are one letter: ``s`` success, ``f`` failure, ``r`` running, ``i`` invalid.
-A resumed pass appends a new ``head``; the records of the killed run from the resume
-time on are dropped on reading, but for the frame and events committed at that time (the
-resumed pass goes on from its last commit, so robot time repeats); a ``head`` that is not a resume starts the file's content afresh (a pass
-killed before it opened its session runs again from the start).
+the timeline. Statuses are one letter: ``s`` success, ``f`` failure, ``r`` running, ``i``
+invalid.
+
+A resumed pass appends a new ``head``; the records of the killed run from the resume time
+on are dropped on reading, but for the frame and events committed at that time (the
+resumed pass goes on from its last commit, so robot time repeats). A ``head`` that is not
+a resume starts the file's content afresh (a pass killed before it opened its session runs
+again from the start).
 """
 
 from __future__ import annotations
