@@ -58,18 +58,20 @@ def bomc(*args: str) -> str:
     return done.stdout
 
 
-def run_preset(floor: str, world: Path, build_site: Path, root: Path, preset: str, sessions: int) -> list[Row]:
+def run_preset(floor: str, world: Path, build_site: Path, root: Path, preset: str, sessions: int,
+               extra: list[str]) -> list[Row]:
     config = root / f"{floor}-{preset}.yaml"
     config.write_text(f"detector:\n  preset: {preset}\n")
+    layers = [arg for path in extra for arg in ("--config", path)] + ["--config", str(config)]
     site = root / f"{floor}-{preset}"
     shutil.copytree(build_site, site)
     rows = []
     for n in range(1, sessions + 1):
         start = time.perf_counter()
-        bomc("monitor", "--world", str(world), "--site", str(site), "--config", str(config), "--session", str(n),
-             "--seed", str(n), "--quiet")
+        bomc("monitor", "--world", str(world), "--site", str(site), *layers, "--session", str(n), "--seed", str(n),
+             "--quiet")
         wall = time.perf_counter() - start
-        scores = json.loads(bomc("evaluate", "--world", str(world), "--site", str(site), "--config", str(config),
+        scores = json.loads(bomc("evaluate", "--world", str(world), "--site", str(site), *layers,
                                  "--session", str(n), "--json"))
         overall, changes = scores["overall"], scores["changes"]
         rows.append(Row(floor, preset, n, overall["f1"], overall["fp"], overall["fn"],
@@ -166,6 +168,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--size", default="36x28", help="WxH of the generated office ('' for none)")
     p.add_argument("--seed", type=int, default=707, help="the generated office's seed")
     p.add_argument("--no-office-s", action="store_true", help="skip the shared office-s floor")
+    p.add_argument("--config", action="append", default=[], help="config file under each preset's (repeatable)")
     p.add_argument("--keep", help="directory to keep the worlds, sites and configs in")
     args = p.parse_args(argv)
     tmp = tempfile.TemporaryDirectory()
@@ -177,10 +180,11 @@ def main(argv: list[str] | None = None) -> int:
     for floor, world in floors(args, root):
         build_site = root / f"{floor}-build"
         start = time.perf_counter()
-        bomc("build", "--world", str(world), "--site", str(build_site), "--seed", "0", "--quiet")
+        bomc("build", "--world", str(world), "--site", str(build_site), "--seed", "0", "--quiet",
+             *[arg for path in args.config for arg in ("--config", path)])
         print(f"# {floor}: {world}, built in {time.perf_counter() - start:.0f} s wall", flush=True)
         for preset in presets:
-            rows += run_preset(floor, world, build_site, root, preset, args.sessions)
+            rows += run_preset(floor, world, build_site, root, preset, args.sessions, args.config)
     print("\n" + HEADER)
     for r in sorted(rows, key=lambda r: (r.floor, r.session, presets.index(r.preset))):
         print(format_row(r))
