@@ -304,9 +304,10 @@ class ProjectionParams:
     # down to nothing at expect_range (far objects are small in the image and often missed)
     miss_full_range: float = 2.5
     # [deg] robust: a flat node (floor footprint at least 3 times longer than wide: a door leaf)
-    # seen farther than this from its face's normal is not expected: edge-on it is a sliver any
-    # detector misses, and its absence there proves nothing. 90: always expected
-    expect_edge_on_deg: float = 65.0
+    # seen farther than this from its face's normal is not expected: edge-on it is a sliver a
+    # detector may miss, and its absence there proves nothing. 90 (default): off, always
+    # expected; 65 helped the hard detector preset's corridor doors (README: detector presets)
+    expect_edge_on_deg: float = 90.0
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the
     # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
     # the middle of the points' spread on the floor (1st to 99th percentile). The mean of the
