@@ -299,6 +299,11 @@ class ProjectionParams:
     # [m] robust: a miss within this range of the camera counts fully; farther it weighs less,
     # down to nothing at expect_range (far objects are small in the image and often missed)
     miss_full_range: float = 2.5
+    # [deg] robust: a flat node (floor footprint at least 3 times longer than wide: a door leaf)
+    # seen farther than this from its face's normal is not expected: edge-on it is a sliver a
+    # detector may miss, and its absence there proves nothing. 90 (default): off, always
+    # expected; 65 helped the hard detector preset's corridor doors (README: detector presets)
+    expect_edge_on_deg: float = 90.0
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the
     # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
     # the middle of the points' spread on the floor (1st to 99th percentile). The mean of the
@@ -321,6 +326,8 @@ class ProjectionParams:
             raise ValueError("miss_full_range must be >= 0")
         if not 0.0 <= self.expect_visible <= 1.0:
             raise ValueError("expect_visible must be in [0, 1]")
+        if not 0.0 <= self.expect_edge_on_deg <= 90.0:
+            raise ValueError("expect_edge_on_deg must be in [0, 90]")
         if self.box_range < 0.0:
             raise ValueError("box_range must be >= 0 (0: no boxes)")
         if self.fov_columns < 2:

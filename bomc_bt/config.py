@@ -49,10 +49,17 @@ class MissionParams:
     # [s] robot time since this pass last confirmed a node after which it is stale: worth
     # another look (Look Around) and a refresh stop (Refresh Stale); 0: never stale
     stale_after: float = 600.0
+    timeline: bool = True  # [bool] record the pass's timeline (sessions/<n>/timeline.jsonl) for replay in bomc view
+    timeline_pose_period: float = 0.5  # [s] robot time between the timeline's poses and feedback messages
+    timeline_flush_period: float = 1.0  # [s] wall time between writes of the timeline to disk (a kill loses less)
 
     def __post_init__(self) -> None:
         if self.stale_after < 0:
             raise ValueError("stale_after must be >= 0 (0: never stale)")
+        if not 0 < self.timeline_pose_period <= 3600:
+            raise ValueError("timeline_pose_period must be more than 0 and at most 3600 s")
+        if not 0 <= self.timeline_flush_period <= 3600:
+            raise ValueError("timeline_flush_period must be 0 to 3600 s")
 
 
 @dataclass

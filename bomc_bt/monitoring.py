@@ -242,6 +242,16 @@ class Coverage:
         return sorted(regions, key=lambda r: -r["area_m2"])
 
 
+@dataclass(frozen=True)
+class FrameSeen:
+    """What the last frame showed: the pass's timeline records it (:mod:`bomc_bt.timeline`)."""
+
+    stamp: float  # [s] robot time of the image
+    size: tuple[int, int]  # [count] image width, height in pixels
+    detections: list  # perception.frames.Detection: category, pixel box, score
+    observations: list  # graph.Observation: their points in the map
+
+
 @dataclass
 class FrameResult:
     detections: int
@@ -275,6 +285,7 @@ class Perception:
     fov_since: list = field(default_factory=list)  # view polygons since the last coverage snapshot
     frames: int = 0  # frames processed
     events: list = field(default_factory=list)  # every event of the pass, in order
+    last_frame: FrameSeen | None = None  # the latest frame's detections, for the timeline
 
     def __post_init__(self, grid: OccupancyGrid) -> None:
         self.coverage = Coverage(grid)
@@ -295,6 +306,7 @@ class Perception:
                                       in_view=[n.id for n in candidates], miss_weights=weights)
         changed = self.graph.drain_changed()
         self.frames += 1
+        self.last_frame = FrameSeen(frame.stamp, frame.shape[::-1], detections, observations)
         if self.store is not None:  # every frame: the resume point moves on even without events
             self.store.record(events, changed, frame_progress(self, self.robot))
         self.events.extend(events)

@@ -291,6 +291,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
     from bomc_bt.pass_resume import restore_pass
     from bomc_bt.report import session_summary
     from bomc_bt.store import SiteStore
+    from bomc_bt.timeline import TimelineRecorder
 
     if session < 1:
         raise BomcError("must be 1 or more", None, "--session")
@@ -321,13 +322,17 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
                              seed=seed, store=store, graph=graph, perception=perception, dock=dock, resume=resume,
                              restored=restored)
+        timeline = TimelineRecorder.open(ctx)  # sessions/<n>/timeline.jsonl for replay; None when off
         try:
             result = run_tree(ctx, Path(tree) if tree else default_tree("monitor"), quiet=quiet, stream=stream,
-                              max_time=max_time, hooks=list(hooks) + factory.mission_hooks(ctx),
-                              context_hooks=context_hooks, on_interrupt=_pass_interrupted)
+                              max_time=max_time, context_hooks=context_hooks, on_interrupt=_pass_interrupted,
+                              hooks=[*hooks, *factory.mission_hooks(ctx), *([timeline] if timeline else [])])
         except MissionFailed as exc:
             _pass_failed(ctx, exc)
             raise
+        finally:
+            if timeline is not None:
+                timeline.close()
         result.summary = session_summary(ctx)
         result.summary["outcome"] = ctx.outcome or ("interrupted" if result.interrupted else "failed")
         return result

@@ -9,6 +9,17 @@ it; the detector missed it three frames in a row and the node was removed, then 
 again two seconds later (issue 17: 10 of 55 nodes flipped in a static first pass). Such
 a view is no evidence either way.
 
+A flat object seen edge-on is no evidence either: a door leaf on the side wall of a narrow
+corridor, seen from along the corridor, is a sliver in the image that detectors miss (the
+``hard`` simulated detector does, as the paper's did). Its misses counted, the node was
+removed and a door across the corridor, 2 m away, took its id as a "move" (issue 17, hard
+preset on office-s). With ``projection.expect_edge_on_deg`` below 90 (opt-in: measured, it
+raised the hard preset's object F1 but not its change scores), a node whose floor footprint
+is at least ``_FLAT_ASPECT`` times longer than wide, seen more than that from its face's
+normal, is not expected. Footprints are axis-aligned boxes, so this knows the faces of walls' doors (the
+generator's, and most buildings'); a flat object standing diagonally has a square box and
+is always expected, as before.
+
 How much a miss weighs (:func:`miss_weights`): 1 within ``projection.miss_full_range``
 of the camera, falling linearly to nothing at ``expect_range``. Any detector misses far
 objects more often (fewer pixels, more depth noise); three far misses in a row happen to
@@ -31,6 +42,7 @@ from bomc_bt.perception.projection import visible
 from bomc_bt.robot import RGBDFrame
 
 _INSET = 0.2  # share of the footprint's half-size the sampled corners lie inside it
+_FLAT_ASPECT = 3.0  # a footprint this many times longer than wide is a flat object's (a door leaf's)
 
 
 def body_samples(node: Node) -> np.ndarray:
@@ -65,7 +77,27 @@ def expected_nodes(frame: RGBDFrame, candidates: Sequence[Node], params: Project
     centres = points[first]
     near = np.hypot(centres[:, 0] - camera[0], centres[:, 1] - camera[1]) <= params.expect_range
     keep = near & seen[first] & (fraction >= params.expect_visible)
+    if params.expect_edge_on_deg < 90.0:
+        keep &= ~edge_on(candidates, camera[:2], params.expect_edge_on_deg)
     return [n for n, k in zip(candidates, keep, strict=True) if k]
+
+
+def edge_on(nodes: Sequence[Node], camera_xy: np.ndarray, limit_deg: float) -> np.ndarray:
+    """Per node: a flat footprint seen more than ``limit_deg`` from its face's normal."""
+    out = np.zeros(len(nodes), dtype=bool)
+    for i, node in enumerate(nodes):
+        fp = node.footprint
+        if fp is None:
+            continue
+        width, depth = float(fp[2] - fp[0]), float(fp[3] - fp[1])
+        if max(width, depth) < _FLAT_ASPECT * max(min(width, depth), 1e-3):
+            continue
+        normal = np.array([0.0, 1.0]) if width > depth else np.array([1.0, 0.0])
+        ray = np.asarray(node.position[:2], dtype=float) - camera_xy
+        distance = float(np.hypot(*ray))
+        if distance > 1e-6:
+            out[i] = abs(float(ray @ normal)) < distance * np.cos(np.radians(limit_deg))
+    return out
 
 
 def miss_weights(frame: RGBDFrame, nodes: Sequence[Node], params: ProjectionParams) -> list[float]:

@@ -22,6 +22,10 @@ What ``realistic`` models, per frame and per visible instance of a prompted cate
   different depth), which is what the robust centroid has to survive.
 * **Dropouts**: no detections at all during the given sim-time intervals (fault injection).
 
+Preset ``hard`` adds failures tied to places and views rather than frames (look-alikes
+seen again and again from the same side, doors missed edge-on in narrow corridors, dark
+zones): see :mod:`bomc_bt.sim.detector_hard`.
+
 Not modelled: appearance (the RGB image is not looked at), lighting, motion blur,
 duplicate boxes for one object, and masks that miss parts of an object.
 
@@ -41,6 +45,7 @@ import numpy as np
 from bomc_bt.errors import BomcError
 from bomc_bt.perception.frames import Detection
 from bomc_bt.robot import RGBDFrame
+from bomc_bt.sim import detector_hard
 from bomc_bt.sim.frame import SimFrame
 from bomc_bt.sim.params import SimDetectorParams
 
@@ -83,12 +88,16 @@ class SimDetector:
         if p.preset == "perfect":
             return [self._emit(frame, c.instance, c.category, c.box, 1.0) for c in candidates]
         out = []
+        hard = p.preset == "hard"
+        extra = detector_hard.penalties(frame, candidates, p.hard) if hard else {}
         draws = rng.random((len(candidates), 3))
         scores = rng.standard_normal(len(candidates))
         jitter = rng.standard_normal((len(candidates), 4))
         for c, (u_miss, u_conf, u_pick), z, j in zip(candidates, draws, scores, jitter, strict=True):
-            miss = min(1.0, p.miss_base + p.miss_per_metre * c.distance + p.miss_occlusion * c.occluded)
-            score = p.score_mean - p.score_drop * miss + p.score_std * z
+            added_miss, score_loss = extra.get(c.instance, (0.0, 0.0))
+            miss = min(1.0, p.miss_base + p.miss_per_metre * c.distance + p.miss_occlusion * c.occluded
+                       + added_miss)
+            score = p.score_mean - p.score_drop * miss - score_loss + p.score_std * z
             if u_miss < miss or score < p.score_threshold:
                 continue
             category = c.category
@@ -100,6 +109,24 @@ class SimDetector:
         fp = self._false_positive(frame, instances, prompts, rng)
         if fp is not None:
             out.append(fp)
+        if hard:
+            out += self._lookalikes(frame, instances, prompts)
+        return out
+
+    def _lookalikes(self, frame: SimFrame, instances: np.ndarray, prompts: list[str]) -> list[Detection]:
+        """The ``hard`` preset's look-alikes in view (their own random stream: ``realistic``'s is untouched)."""
+        p = self.params
+        rng = np.random.default_rng([self.seed, _stamp_key(frame.stamp), 1])
+        camera_xy = detector_hard.camera_pose(frame)[:2, 3]
+        out = []
+        for site, category in detector_hard.lookalike_sites(frame.world_key, camera_xy, p.hard, prompts):
+            u_fire, z = rng.random(), rng.standard_normal()
+            score = p.score_mean + p.score_std * z
+            if u_fire >= p.hard.lookalike_rate or score < p.score_threshold:
+                continue
+            box = detector_hard.lookalike_box(frame, site, p.hard, self._min_pixels(instances))
+            if box is not None:
+                out.append(self._emit(frame, 0, category, box, min(score, 1.0)))
         return out
 
     # -- Segmenter -----------------------------------------------------------------------
@@ -122,7 +149,7 @@ class SimDetector:
                 mask[y0:y1, x0:x1] = instances[y0:y1, x0:x1] == instance
             elif x1 > x0 and y1 > y0:
                 _blob(mask, (x0, y0, x1, y1))
-            if self.params.preset == "realistic" and self.params.mask_bleed > 0.0:
+            if self.params.preset != "perfect" and self.params.mask_bleed > 0.0:
                 mask = _bleed(mask, self.params.mask_bleed)
             out.append(det.with_mask(mask))
         return out

@@ -24,6 +24,9 @@ class SimFrame(RGBDFrame):
     # Pixels each instance would cover if nothing occluded it (its occluded fraction drives
     # the simulated detector's miss rate).
     instance_unoccluded: dict[int, int] = field(default_factory=dict)
+    # A stable number per world (crc32 of its name; 0: unknown, as in frames that came over ROS): the
+    # ``hard`` detector's look-alikes and dark zones are fixed per world, whatever the pass's seed.
+    world_key: int = 0
 
     @classmethod
     def of(cls, frame: RGBDFrame, instances: np.ndarray, categories: dict[int, str],

@@ -191,10 +191,59 @@ class CameraParams:
 
 
 @dataclass
+class HardDetectorParams:
+    """The ``hard`` preset's correlated failure modes (see bomc_bt.sim.detector_hard).
+
+    Look-alikes and dark zones are fixed per world (a hash of the world's name, the place
+    and, for look-alikes, the viewing sector), so they come back whenever the robot looks
+    from a similar pose, pass after pass; none of these fields matter to other presets.
+    """
+
+    lookalike_cell: float = 3.0  # [m] side of the floor squares that each hold at most one look-alike
+    lookalike_density: float = 0.1  # [-] share of those squares that hold a look-alike (a shadow, a box)
+    lookalike_sectors: int = 8  # [count] viewing sectors around a look-alike (8: 45 deg each)
+    lookalike_sector_share: float = 0.25  # [-] share of its sectors from which a look-alike is mistaken for an object
+    lookalike_range: float = 4.0  # [m] a look-alike farther from the camera than this is not mistaken
+    lookalike_rate: float = 0.8  # [-] chance per frame that a look-alike in view from one of its sectors is reported
+    lookalike_size: float = 0.5  # [m] side of the look-alike's square footprint on the floor
+    lookalike_height: float = 0.4  # [m] height of the look-alike (its box in the image)
+    # [list] categories the grazing-angle misses apply to (thin, flat objects seen edge-on)
+    grazing_categories: list[str] = field(default_factory=lambda: ["door"])
+    grazing_start_deg: float = 50.0  # [deg] angle between view ray and the object's normal above which misses rise
+    grazing_miss: float = 0.7  # [-] added miss probability edge-on (90 deg) with the camera close to the plane
+    # [m] camera within this distance of the object's plane (a narrow corridor): the full grazing effect;
+    # it fades to nothing at twice this distance
+    grazing_lateral: float = 1.5
+    dark_cell: float = 8.0  # [m] side of the floor squares that each hold at most one dark zone
+    dark_share: float = 0.3  # [-] share of those squares that hold a dark zone
+    dark_radius: float = 2.5  # [m] radius of a dark zone (at most dark_cell)
+    dark_miss: float = 0.35  # [-] added miss probability of an object inside a dark zone
+    dark_score_drop: float = 0.08  # [-] confidence lost by an object inside a dark zone
+
+    def __post_init__(self) -> None:
+        for name in ("lookalike_density", "lookalike_sector_share", "lookalike_rate", "grazing_miss",
+                     "dark_share", "dark_miss", "dark_score_drop"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1]")
+        for name in ("lookalike_cell", "lookalike_range", "lookalike_size", "lookalike_height", "grazing_lateral",
+                     "dark_cell"):
+            if not 0.0 < getattr(self, name) <= 1000.0:
+                raise ValueError(f"{name} must be in (0, 1000] m")
+        if not 1 <= self.lookalike_sectors <= 360:
+            raise ValueError("lookalike_sectors must be 1 to 360")
+        if not 0.0 <= self.grazing_start_deg < 90.0:
+            raise ValueError("grazing_start_deg must be in [0, 90)")
+        if not 0.0 <= self.dark_radius <= self.dark_cell:
+            raise ValueError("dark_radius must be in [0, dark_cell]")
+
+
+@dataclass
 class SimDetectorParams:
     """Noise model of the simulated detector and segmenter (see bomc_bt.sim.detector)."""
 
-    preset: Literal["perfect", "realistic"] = "realistic"  # [choice] "perfect": every visible object, no noise
+    # [choice] "perfect": every visible object, no noise; "realistic": independent per-frame noise (below);
+    # "hard": realistic plus correlated failures (look-alikes, grazing-angle and dark-zone misses; see hard)
+    preset: Literal["perfect", "realistic", "hard"] = "realistic"
     score_threshold: float = 0.75  # [-] detections scoring below this are dropped (the paper's threshold)
     min_pixels: int = 50  # [count] visible pixels an object needs to be detected, at 640 x 480 (scaled with the image)
     miss_base: float = 0.05  # [-] probability of missing a fully visible object up close
@@ -209,6 +258,7 @@ class SimDetectorParams:
     box_jitter: float = 0.03  # [-] standard deviation of each box side, as a fraction of the box size
     # [list] (start, end) intervals in s of sim time with no detections at all
     dropouts: list[tuple[float, float]] = field(default_factory=list)
+    hard: HardDetectorParams = field(default_factory=HardDetectorParams)
 
     def __post_init__(self) -> None:
         for name in ("miss_base", "miss_per_metre", "miss_occlusion", "score_std", "score_drop",

@@ -24,6 +24,7 @@ so results do not depend on who asked. Everything random is seeded from ``seed``
 from __future__ import annotations
 
 import math
+import zlib
 from typing import Any, Literal
 
 import numpy as np
@@ -33,6 +34,7 @@ from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import LaserScan, RequestHandle, RGBDFrame, Status
 from bomc_bt.sim.clock import SimClock
 from bomc_bt.sim.faults import PERSON_RADIUS, People
+from bomc_bt.sim.frame import SimFrame
 from bomc_bt.sim.lidar import Lidar
 from bomc_bt.sim.mapper import Mapper, ObstacleLayer
 from bomc_bt.sim.navigation import NavHandle, Navigator
@@ -369,6 +371,9 @@ class SimRobot:
         if self.now() < self._last_frame + 1.0 / rate - 1e-9:
             return None
         self._last_frame = self.now()
-        return self.camera.render(self.world.walls(), self.world.grid, self.world.wall_height,
-                                  list(self._objects.values()), list(self.scene.obstacles),
-                                  self.people_positions(), self._true, self._estimate, self.now())
+        frame = self.camera.render(self.world.walls(), self.world.grid, self.world.wall_height,
+                                   list(self._objects.values()), list(self.scene.obstacles),
+                                   self.people_positions(), self._true, self._estimate, self.now())
+        if isinstance(frame, SimFrame):
+            frame.world_key = zlib.crc32(self.world.name.encode("utf-8"))
+        return frame

@@ -17,10 +17,13 @@ Routes:
 * ``/state.json`` -- the full state at once (scripts, debugging).
 * ``/map.png`` -- the current occupancy map, grey, north up, one pixel per cell.
 * ``/api/diff?a=N&b=M`` -- a finished site's changes between two sessions.
+* ``/api/timeline?session=N`` -- a pass's recorded timeline, for replay (:mod:`.replay`).
+* ``POST /api/edit`` -- an operator's correction of a finished site (:mod:`.corrections`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import mimetypes
@@ -33,7 +36,9 @@ from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 from bomc_bt.errors import BomcError
+from bomc_bt.viewer.corrections import CorrectionsApi, read_request
 from bomc_bt.viewer.live import ViewerHook
+from bomc_bt.viewer.replay import ReplayApi
 from bomc_bt.viewer.site import SiteView, load_site
 from bomc_bt.viewer.store import StateStore, ViewerParams
 
@@ -48,9 +53,11 @@ Api = Callable[[dict[str, list[str]]], Any]
 class Server:
     """Serves ``state`` on ``127.0.0.1:port`` (0: any free port) from a daemon thread."""
 
-    def __init__(self, state: StateStore, port: int = DEFAULT_PORT, api: dict[str, Api] | None = None):
+    def __init__(self, state: StateStore, port: int = DEFAULT_PORT, api: dict[str, Api] | None = None,
+                 post_api: dict[str, Callable[[Any], Any]] | None = None):
         self.state = state
         self.api = dict(api or {})
+        self.post_api = dict(post_api or {})  # route -> handler of the request's JSON body
         try:
             self.httpd = ThreadingHTTPServer((HOST, port), _handler(self))
         except OSError as exc:
@@ -118,7 +125,10 @@ def serve_site(site_dir: str | Path, port: int = DEFAULT_PORT, params: ViewerPar
             raise BomcError("give two session numbers: /api/diff?a=N&b=M", None, "a, b") from None
         return view.diff(a, b)
 
-    return Server(state, port, api={"/api/diff": diff}).start()
+    corrections = CorrectionsApi(view, state)
+    corrections.publish()
+    return Server(state, port, api={"/api/diff": diff, **ReplayApi(view).routes()},
+                  post_api=corrections.routes()).start()
 
 
 def parse_event_id(text: str | None, epoch: str) -> int | None:
@@ -159,6 +169,15 @@ def _handler(server: Server) -> type[BaseHTTPRequestHandler]:
                     self.send_error(HTTPStatus.NOT_FOUND)
             except (BrokenPipeError, ConnectionResetError):
                 pass  # the page went away
+
+        def do_POST(self) -> None:  # noqa: N802 - http.server's naming
+            route = urlsplit(self.path).path
+            if route not in server.post_api:
+                self.send_error(HTTPStatus.NOT_FOUND)
+                return
+            handler = server.post_api[route]
+            with contextlib.suppress(BrokenPipeError, ConnectionResetError):  # the page went away
+                self._api(lambda _: handler(read_request(self.headers, self.rfile, server.port)), {})
 
         def _send(self, body: bytes, content_type: str, status: HTTPStatus = HTTPStatus.OK) -> None:
             self.send_response(status)

@@ -11,6 +11,10 @@ const S = {
   site: { session: null, a: null, b: null, diff: null },
   view: null,  // world -> canvas transform of the last draw
 };
+// Modules that plug into the page (replay.js, corrections.js) register here: scene(scene) may
+// return another scene to draw, overlay(g, view, scene, dpr) draws on the map, render(keys)
+// follows new sections, session(n) follows the session chosen.
+const EXT = { scene: [], overlay: [], render: [], session: [] };
 const $ = (id) => document.getElementById(id);
 const esc = (s) => String(s).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;" }[c]));
 const fmt = (v, d = 1) => (typeof v === "number" ? v.toFixed(d) : "–");
@@ -54,6 +58,7 @@ function render(keys) {
   if (has("events")) renderEvents((S.sections.events || {}).items || []);
   if (has("site")) initSite(S.sections.site);
   if (has("map")) loadMap(S.sections.map);
+  EXT.render.forEach((f) => f(keys));
   draw();
 }
 
@@ -151,6 +156,7 @@ function selectSession(n, pair) {
   $("events-title").textContent = n ? `Events of session ${n}` : "Events";
   renderEvents(s ? s.events : []);
   loadDiff();
+  EXT.session.forEach((f) => f(n));
   draw();
 }
 async function loadDiff() {
@@ -213,7 +219,7 @@ function currentScene() {
     d.moved.forEach((n) => { scene.highlight[n.id] = "moved"; scene.movedFrom[n.id] = n.from; });
     scene.removed = d.removed;
   }
-  return scene;
+  return EXT.scene.reduce((sc, f) => f(sc) || sc, scene);
 }
 
 function fitView(canvas, scene) {
@@ -309,6 +315,7 @@ function draw() {
     g.beginPath(); g.moveTo(x + c * rr * 0.4, y - s * rr * 0.4); g.lineTo(x + c * rr * 1.7, y - s * rr * 1.7);
     g.strokeStyle = "#1d2330"; g.lineWidth = 2 * dpr; g.stroke();
   }
+  EXT.overlay.forEach((f) => f(g, v, scene, dpr));
   $("legend").innerHTML = Object.keys(cats).sort().map((c) => `<span data-category="${esc(c)}"><span class="sw" style="background:${cats[c]}"></span>${esc(c)}</span>`).join("");
   S.draws += 1;
   canvas.dataset.draws = String(S.draws);
@@ -320,7 +327,7 @@ function cross(g, [x, y], s, colour, width) {
 
 // For people poking at the page and for the browser tests: read the canvas at a world point.
 window.bomcViewer = {
-  state: S,
+  state: S, extend: EXT, draw, toCanvas, esc, fmt, sessionData, COLOURS,
   pixelAtWorld(x, y) {
     if (!S.view) return null;
     const [cx, cy] = toCanvas(S.view, x, y);

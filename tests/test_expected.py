@@ -1,0 +1,54 @@
+"""Which nodes a frame is evidence about: a flat object seen edge-on is not one of them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bomc_bt.algorithm_params import ProjectionParams
+from bomc_bt.geometry import Pose2D
+from bomc_bt.graph import Node
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.perception.expected import edge_on, expected_nodes
+from bomc_bt.sim.camera import CameraParams, SimCamera
+from bomc_bt.world import WorldObject
+
+RES = 0.1
+DOOR = WorldObject("door", "door", (0.0, 0.0, 1.0), (0.9, 0.06, 2.0), yaw=0.0)  # its face looks along y
+
+
+def door_node(footprint=(-0.5, -0.08, 0.5, 0.08)) -> Node:
+    return Node(1, "door", np.array([0.0, 0.0, 1.0]), 0.9, 1, 1, footprint=footprint)
+
+
+def render(objects, pose: Pose2D):
+    """A frame inside a walled room x -5..2.5, y -4.5..1.5 (the walls are what the camera sees past the door)."""
+    n = int(20.0 / RES)
+    grid = OccupancyGrid(np.zeros((n, n), dtype=np.int8), RES, (-10.0, -10.0))
+    walls = np.ones((n, n), dtype=bool)
+    (r0, r1), (c0, c1) = grid.world_to_cell(np.array([-5.0, 2.5]), np.array([-4.5, 1.5]))
+    walls[int(r0):int(r1), int(c0):int(c1)] = False
+    cam = SimCamera(CameraParams(scale=0.25, depth_noise=0.0), seed=0)
+    return cam.render(walls, grid, 2.5, list(objects), [], [], pose, pose, 0.0)
+
+
+def test_a_door_seen_edge_on_from_a_narrow_corridor_is_no_evidence_head_on_it_is():
+    lateral, along = 1.0, 3.4  # from 1 m beside its plane, 3.4 m along: 74 deg off its normal
+    edge = Pose2D(-along, -lateral, math.atan2(lateral, along))
+    head_on = Pose2D(0.0, -math.hypot(lateral, along), math.pi / 2)
+    node = door_node()
+    params = ProjectionParams(expect_edge_on_deg=65.0)
+    # The door is gone: both frames see through to where it stood.
+    assert expected_nodes(render([], head_on), [node], params) == [node]
+    assert expected_nodes(render([], edge), [node], params) == []
+    assert expected_nodes(render([], edge), [node], ProjectionParams()) == [node]  # off by default
+
+
+def test_only_flat_footprints_seen_past_the_limit_are_edge_on():
+    camera = np.array([-3.4, -1.0])  # 74 deg off the door's normal
+    flat, square, unknown = door_node(), door_node((-0.3, -0.3, 0.3, 0.3)), door_node(None)
+    turned = door_node((-0.08, -0.5, 0.08, 0.5))  # the same door in a wall along y: camera 16 deg off its normal
+    assert edge_on([flat, square, unknown, turned], camera, 65.0).tolist() == [True, False, False, False]
+    assert edge_on([flat], camera, 80.0).tolist() == [False]
+    assert edge_on([flat], np.array([0.0, -3.0]), 65.0).tolist() == [False]
