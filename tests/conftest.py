@@ -1,4 +1,4 @@
-"""Shared fixtures: where the shared worlds and maps live."""
+"""Shared fixtures: where the shared worlds and maps live; headless Chromium."""
 
 from __future__ import annotations
 
@@ -6,6 +6,21 @@ from pathlib import Path
 
 import pytest
 from shared_data import SHARED, require_shared
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """Headless Chromium for the viewer tests (skipped, saying what to install, where there is none)."""
+    from browser import INSTALL_HINT, Browser, BrowserError, find_chromium
+
+    if find_chromium() is None:
+        pytest.skip(INSTALL_HINT)
+    try:
+        b = Browser()
+    except BrowserError as exc:
+        pytest.skip(f"headless Chromium did not start ({exc}); {INSTALL_HINT}")
+    yield b
+    b.close()
 
 
 @pytest.fixture(scope="session")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import psycopg
 import pytest
-from browser import INSTALL_HINT, Browser, BrowserError, find_chromium
+from browser import Browser
 from central_sites import central_state, lab_site, lab_site_2, perfect, run_pass_2  # noqa: F401  (fixtures)
 from postgres_server import central_url, postgres  # noqa: F401  (fixtures)
 from site_files import REPO, bomc_env, copy_site, snapshot
@@ -98,18 +98,6 @@ def central_rows(url: str):
 
 
 # ------------------------------------------------------------------ the viewer in Chromium
-@pytest.fixture(scope="module")
-def browser():
-    if find_chromium() is None:
-        pytest.skip(INSTALL_HINT)
-    try:
-        b = Browser()
-    except BrowserError as exc:
-        pytest.skip(f"headless Chromium did not start ({exc}); {INSTALL_HINT}")
-    yield b
-    b.close()
-
-
 def rendered(browser: Browser, where: str, points: list[tuple[float, float]], shot: str | None = None) -> dict:
     """What the site page shows for ``where`` (a folder or a postgresql:// floor) once drawn:
     the sessions listed, the difference of 1 and 2, the legend, the canvas, its pixels at ``points``."""

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 import py_trees
 import pytest
-from browser import INSTALL_HINT, Browser, BrowserError, find_chromium
+from browser import Browser
 from py_trees.common import Status
 
 from bomc_bt.errors import BomcError
@@ -428,18 +428,6 @@ def test_serving_a_folder_without_a_site_is_a_user_error(tmp_path):
 
 
 # ------------------------------------------------------------------- in Chromium
-@pytest.fixture(scope="module")
-def browser():
-    if find_chromium() is None:
-        pytest.skip(INSTALL_HINT)
-    try:
-        b = Browser()
-    except BrowserError as exc:
-        pytest.skip(f"headless Chromium did not start ({exc}); {INSTALL_HINT}")
-    yield b
-    b.close()
-
-
 def status_of(name: str) -> str:
     return f"(document.querySelector('#tree [data-name=\"{name}\"]') || {{dataset: {{}}}}).dataset.status"
 

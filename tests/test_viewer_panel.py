@@ -15,24 +15,12 @@ from pathlib import Path
 
 import cv2
 import pytest
-from browser import INSTALL_HINT, Browser, BrowserError, find_chromium
+from browser import Browser
 
 from bomc_bt.viewer import Server, StateStore
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "artifacts"
 LONG = ("waypoint 7/31: detour via (12.40, 3.10) after 2 failed goals; " * 4).strip()
-
-
-@pytest.fixture(scope="module")
-def browser():
-    if find_chromium() is None:
-        pytest.skip(INSTALL_HINT)
-    try:
-        b = Browser()
-    except BrowserError as exc:
-        pytest.skip(f"headless Chromium did not start ({exc}); {INSTALL_HINT}")
-    yield b
-    b.close()
 
 
 def deep_tree(levels: int) -> dict:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import cv2
 import pytest
-from browser import INSTALL_HINT, Browser, BrowserError, find_chromium
+from browser import Browser
 from replay_site import make_replay_site, status_at, timeline_records
 from site_files import bomc, snapshot
 
@@ -36,18 +36,6 @@ STATUS = {"s": "success", "f": "failure", "r": "running", "i": "invalid"}
 @pytest.fixture(scope="module")
 def office(tmp_path_factory):
     return make_replay_site(tmp_path_factory.mktemp("replay"))
-
-
-@pytest.fixture(scope="module")
-def browser():
-    if find_chromium() is None:
-        pytest.skip(INSTALL_HINT)
-    try:
-        b = Browser()
-    except BrowserError as exc:
-        pytest.skip(f"headless Chromium did not start ({exc}); {INSTALL_HINT}")
-    yield b
-    b.close()
 
 
 def rgb(hex_colour: str) -> list[int]:
