@@ -89,6 +89,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--corridor-chairs", type=int, default=0, metavar="N",
                    help="sessions N, 2N, ... leave a chair in the middle of a corridor (default 0: never)")
     o.add_argument("--resolution", type=float, default=0.05, help="map metres per cell")
+    o.add_argument("--hot-rooms", type=float, default=0.0, help="share of rooms where most changes happen (default 0)")
     o.add_argument("--force", action="store_true", help="replace existing files")
 
     v = sub.add_parser("view", help="browse a finished site in the web viewer")
