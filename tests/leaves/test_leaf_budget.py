@@ -1,0 +1,91 @@
+"""A pass with a budget, tick by tick on the scripted robot: the plan ends at the dock within
+the budget, a waypoint the robot can no longer afford is skipped with the rest of the tour,
+the later phases stay empty, and a budget too small to leave the dock plans nothing else."""
+
+from __future__ import annotations
+
+from fake_robot import key, tick
+from py_trees.common import Status
+
+from behaviours.plan_pass import PlanGapViewpoints, PlanRefreshStops, PlanTraversal
+from behaviours.waypoints import NextWaypoint, WaypointsDone
+from bomc_bt.budget_pass import budget_key
+from bomc_bt.budget_plan import PassBudget
+from bomc_bt.geometry import Pose2D
+from bomc_bt.monitoring import TraversalState
+from bomc_bt.traversal import TraversalPlan
+
+
+def begin(ctx, seconds: float) -> None:
+    ctx.store.begin_session(ctx.session, {"stamp": ctx.now()})
+    ctx.config.budget.seconds = seconds
+
+
+def test_a_budgeted_plan_ends_at_the_dock_and_is_planned_within_the_budget(ctx):
+    begin(ctx, 40.0)
+    assert tick(PlanTraversal("Plan", None, ctx)) == Status.SUCCESS
+    budget = ctx.budget
+    assert budget is not None and not budget.full_pass
+    assert 0 < budget.stops < budget.stops_total  # 40 s cannot see all of a 10 x 10 m room's stops
+    assert budget.planned_s <= 40.0
+    last = ctx.plan.waypoints[-1]
+    assert (last.x, last.y) == (ctx.dock.x, ctx.dock.y)
+    assert ctx.store.get_progress(budget_key(ctx.session))["seconds"] == 40.0
+
+
+def test_a_budget_too_small_to_leave_the_dock_plans_only_the_way_home(ctx):
+    begin(ctx, 1.0)
+    assert tick(PlanTraversal("Plan", None, ctx)) == Status.SUCCESS
+    assert len(ctx.plan.waypoints) == 1 and ctx.budget.stops == 0
+    assert tick(WaypointsDone("Done", None, ctx)) == Status.FAILURE
+    assert tick(NextWaypoint("Next", None, ctx)) == Status.SUCCESS
+    assert key("goal").x == ctx.dock.x
+    assert tick(WaypointsDone("Done", None, ctx)) == Status.SUCCESS
+
+
+def test_the_tree_parameter_overrides_the_configuration(ctx):
+    begin(ctx, 0.0)
+    leaf = PlanTraversal("Plan", None, ctx)
+    leaf.params.budget = 60.0
+    assert tick(leaf) == Status.SUCCESS
+    assert ctx.budget is not None and ctx.budget.seconds == 60.0
+
+
+def test_a_waypoint_that_would_overrun_the_budget_is_skipped_with_the_rest_and_the_dock_comes_next(ctx, robot):
+    waypoints = [Pose2D(3.0, 1.0, 0.0), Pose2D(8.0, 8.0, 0.0), Pose2D(3.0, 2.0, 0.0), Pose2D(1.0, 1.0, 0.0)]
+    ctx.plan = TraversalPlan(waypoints, 20.0)
+    ctx.traverse = TraversalState(ctx.plan)
+    ctx.budget = PassBudget(60.0, "expected_changes", speed=0.5, heading_time=4.0, started=robot.now(),
+                            home_m=[2.0, 10.0, 2.2, 0.0])
+    robot.place(Pose2D(1.0, 1.0, 0.0))
+    assert tick(NextWaypoint("Next", None, ctx)) == Status.SUCCESS  # 2 + 2 m at 0.5 m/s + 4 s: fits
+    assert key("goal").x == 3.0
+    robot.advance(30.0)
+    robot.place(Pose2D(3.0, 1.0, 0.0))
+    assert tick(NextWaypoint("Next", None, ctx)) == Status.SUCCESS  # (8.6 + 10) / 0.5 + 4 > 30 s left
+    assert (key("goal").x, key("goal").y) == (1.0, 1.0)
+    assert ctx.traverse.states[1:3] == ["pending", "pending"]  # skipped: reported as not reached
+    assert tick(WaypointsDone("Done", None, ctx)) == Status.SUCCESS
+
+
+def test_gap_and_refresh_phases_stay_empty_in_a_budgeted_pass(ctx):
+    begin(ctx, 120.0)
+    tick(PlanTraversal("Plan", None, ctx))
+    before = len(ctx.traverse.states)
+    assert tick(PlanGapViewpoints("Gaps", None, ctx)) == Status.SUCCESS
+    assert tick(PlanRefreshStops("Refresh", None, ctx)) == Status.SUCCESS
+    assert len(ctx.traverse.states) == before
+
+
+def test_a_budget_that_covers_the_last_full_pass_runs_the_full_pass(ctx, robot):
+    ctx.store.begin_session(1, {"stamp": 0.0})
+    ctx.store.end_session(1, "completed", {"stamp": 100.0})
+    ctx.session = 2
+    begin(ctx, 150.0)
+    assert tick(PlanTraversal("Plan", None, ctx)) == Status.SUCCESS
+    assert ctx.budget.full_pass
+    last = ctx.plan.waypoints[-1]
+    assert (last.x, last.y) != (ctx.dock.x, ctx.dock.y)  # the full plan, no way home appended
+    gaps = PlanGapViewpoints("Gaps", None, ctx)
+    tick(gaps)
+    assert "budget" not in gaps.feedback_message  # the full pass's phases run as always
