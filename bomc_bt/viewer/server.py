@@ -17,6 +17,7 @@ Routes:
 * ``/state.json`` -- the full state at once (scripts, debugging).
 * ``/map.png`` -- the current occupancy map, grey, north up, one pixel per cell.
 * ``/api/diff?a=N&b=M`` -- a finished site's changes between two sessions.
+* ``/api/change_model`` -- a finished site's change model per region (the heat map, :mod:`.heatmap`).
 """
 
 from __future__ import annotations
@@ -118,7 +119,10 @@ def serve_site(site_dir: str | Path, port: int = DEFAULT_PORT, params: ViewerPar
             raise BomcError("give two session numbers: /api/diff?a=N&b=M", None, "a, b") from None
         return view.diff(a, b)
 
-    return Server(state, port, api={"/api/diff": diff}).start()
+    from bomc_bt.viewer.heatmap import change_model_json
+
+    api = {"/api/diff": diff, "/api/change_model": lambda query: change_model_json(site_dir)}
+    return Server(state, port, api=api).start()
 
 
 def parse_event_id(text: str | None, epoch: str) -> int | None:
