@@ -2,7 +2,8 @@
 
 Per region of the map (:mod:`bomc_bt.change_model`): its rate of changes per pass, the
 passes since a pass last saw it and the changes expected to be waiting there at the next
-pass, with the map-frame square each covers, for the page to draw over the map. Read-only:
+pass, with the map-frame square each covers, for the page to draw over the map
+(``static/heatmap.js``); and per pass with a budget, the regions it skipped. Read-only:
 the store is opened as every viewer opens it (nothing written).
 """
 
@@ -45,4 +46,16 @@ def _model(store, grid, config, session: int) -> dict[str, Any]:
         model = load_model(store, grid, config)
     out = model.to_json(session)
     out["max_waiting"] = max((r["waiting"] for r in out["regions"]), default=0.0)
+    out["skipped"] = {} if store is None else skipped_by_session(store.sessions())
+    return out
+
+
+def skipped_by_session(sessions) -> dict[str, list[dict[str, Any]]]:
+    """Per session with a budget (by number, as text for JSON): the regions its report says
+    the pass did not see, with how stale each was left."""
+    out = {}
+    for s in sessions:
+        budget = s.report.get("budget") if isinstance(s.report, dict) else None
+        if isinstance(budget, dict) and budget.get("seconds") and not budget.get("full_pass"):
+            out[str(s.number)] = list(budget.get("skipped_regions") or [])
     return out
