@@ -1,8 +1,10 @@
 """Passes with a budget: does looking first where things change find more of them?
 
 A generated office with hot rooms (``--hot-rooms``: most changes happen in a few rooms,
-the rest change rarely) is built once and mapped by one full pass (session 1). Then each
-arm runs ``--passes`` more passes (sessions 2..N+1) on its own copy of that site:
+the rest change rarely) is built once, mapped by one full pass (session 1) and given
+``--history`` more full passes (the site's history the change model learns from; 0: the
+model starts uniform and learns only from the arm's own passes). Then each arm runs
+``--passes`` more passes on its own copy of that site:
 
 * ``full``: the full pass (the default, no budget);
 * for each budget (a share of the full pass's robot time, measured in this run):
@@ -10,8 +12,9 @@ arm runs ``--passes`` more passes (sessions 2..N+1) on its own copy of that site
   ``uniform`` (the same tour with every region alike: most floor per second) and ``cut``
   (the paper's plan, ``traversal.plan: paper``, in its order, cut when the budget is spent).
 
-A budget at least as long as the last full pass runs a full pass (budget_pass.py): the
-``expected_changes`` and ``uniform`` arms at 100 % are the ``full`` arm, not run twice.
+The budgets are shares of what a full pass of the site takes (the median of its last
+three full passes, as ``bomc monitor --budget`` reckons it); a budget that covers it runs
+a full pass (budget_pass.py), which the 100 % arms check by running.
 
 Per arm it prints: the share of the true changes (objects removed, moved, added between
 two sessions, by name in the world file) that the pass right after them found (an
@@ -21,7 +24,7 @@ never noticed counts as the passes left, and is listed apart), object F1 (``bomc
 evaluate``) averaged over the passes, and the robot time used against the budget; the
 ratio columns compare with the cut paper plan at the same budget, measured in this run.
 
-    python benchmarks/bench_budget.py                      # 36x28, 12 passes, budgets 25/50/100 %
+    python benchmarks/bench_budget.py                      # 36x28, 3 + 12 passes, budgets 25/50/100 %
     python benchmarks/bench_budget.py --size 50x45 --passes 6 --budgets 25
 """
 
@@ -39,6 +42,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bomc_bt import run  # noqa: E402
+from bomc_bt.budget_pass import last_full_pass_seconds  # noqa: E402
 from bomc_bt.cli import main as bomc  # noqa: E402
 from bomc_bt.evaluate_site import evaluate_session  # noqa: E402
 from bomc_bt.store import SiteStore  # noqa: E402
@@ -97,9 +101,10 @@ def run_arm(arm: Arm, world_path: Path, base: Path, root: Path, full_s: float, l
     site = root / arm.name
     shutil.copytree(base, site)
     world = load_world(world_path)
-    arm.changes = true_changes(world, range(2, last + 1))
+    first = args.history + 2
+    arm.changes = true_changes(world, range(first, last + 1))
     t0 = time.perf_counter()
-    for s in range(2, last + 1):
+    for s in range(first, last + 1):
         config = run.build_config([])
         if arm.strategy is not None:
             config.budget.seconds = round(arm.share * full_s, 1)
@@ -150,7 +155,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--size", default="36x28", help="office WxH in metres")
     p.add_argument("--seed", type=int, default=3)
-    p.add_argument("--passes", type=int, default=12, help="budgeted passes after the first full one")
+    p.add_argument("--passes", type=int, default=12, help="budgeted passes after the history")
+    p.add_argument("--history", type=int, default=3, help="full passes after the first one, before the arms")
     p.add_argument("--budgets", default="25,50,100", help="percent of the full pass's robot time")
     p.add_argument("--strategies", default="expected_changes,uniform,cut")
     p.add_argument("--churn", type=float, default=0.1)
@@ -160,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     root = Path(args.keep or tempfile.mkdtemp(prefix="bench_budget_"))
     root.mkdir(parents=True, exist_ok=True)
-    last = args.passes + 1
+    last = args.passes + args.history + 1
     world = root / "world" / "office.yaml"
     rc = bomc(["world", "office", "--out", str(world), "--size", args.size, "--seed", str(args.seed), "--sessions",
                str(last), "--churn", str(args.churn), "--hot-rooms", str(args.hot_rooms), "--force"])
@@ -169,23 +175,21 @@ def main(argv: list[str] | None = None) -> int:
     base = root / "base"
     t0 = time.perf_counter()
     run.run_build(world, base, seed=args.seed)
-    first = run.run_monitor(world, base, 1, seed=args.seed)
-    full_s = first.sim_time
-    print(f"built and mapped (session 1: {full_s:.0f} s robot time) in {time.perf_counter() - t0:.0f} s", flush=True)
+    for s in range(1, args.history + 2):
+        run.run_monitor(world, base, s, seed=args.seed)
+    with SiteStore(base, readonly=True) as store:
+        full_s = last_full_pass_seconds(store.sessions())
+    print(f"built, mapped and {args.history} full passes (a full pass: {full_s:.0f} s robot time) "
+          f"in {time.perf_counter() - t0:.0f} s", flush=True)
     arms = [Arm("full", None, 1.0)]
     for pct in [float(b) for b in args.budgets.split(",")]:
         for strategy in args.strategies.split(","):
-            if pct >= 100 and strategy != "cut":
-                continue  # a budget that covers the last full pass runs the full pass: the full arm
             arms.append(Arm(f"{strategy}@{pct:g}%", strategy, pct / 100))
     for arm in arms:
         run_arm(arm, world, base, root, full_s, last, args)
-    for pct in [float(b) for b in args.budgets.split(",")]:
-        if pct >= 100:
-            arms += [Arm(f"{s}@{pct:g}% (= full)", s, pct / 100, full.times, full.f1, full.changes)
-                     for s in args.strategies.split(",") if s != "cut" for full in arms[:1]]
     print(f"\n{args.size} office, seed {args.seed}, churn {args.churn}, hot rooms {args.hot_rooms}, "
-          f"{args.passes} passes; full pass {full_s:.0f} s robot time; sites in {root}\n")
+          f"{args.history} full passes of history, {args.passes} passes; full pass {full_s:.0f} s robot time; "
+          f"sites in {root}\n")
     print(table(arms, full_s, last))
     return 0
 

@@ -1,14 +1,15 @@
 """Planning a monitor pass with a budget, and keeping it within the budget while it runs.
 
-The pieces: the site's change model (:mod:`bomc_bt.change_model`), the coverage plan's
-stops (:mod:`bomc_bt.coverage_plan`) and the orienteering tour over them
+The pieces: the site's change model (:mod:`bomc_bt.change_model`), the stops that see
+what is worth seeing (:mod:`bomc_bt.budget_stops`) and the orienteering tour over them
 (:mod:`bomc_bt.budget_plan`). :func:`plan_budget_pass` turns them into an ordinary
 :class:`~bomc_bt.traversal.TraversalPlan` ending at the dock, plus the
 :class:`~bomc_bt.budget_plan.PassBudget` the waypoint loop checks before each waypoint
 (:func:`next_within_budget`, :func:`budget_spent`).
 
-A budget at least as long as the site's last full pass took (:func:`last_full_pass_seconds`)
-runs a full pass, unchanged: with that much time nothing is gained by leaving anything out.
+A budget at least as long as the site's full passes take (:func:`last_full_pass_seconds`:
+the median of the last three) runs a full pass, unchanged: with that much time nothing
+is gained by leaving anything out.
 """
 
 from __future__ import annotations
@@ -17,10 +18,17 @@ from collections.abc import Callable
 
 import numpy as np
 
-from bomc_bt.budget_plan import PassBudget, orienteer, stop_values
+from bomc_bt.budget_plan import PassBudget, orienteer
+from bomc_bt.budget_stops import (
+    MarginalValue,
+    heading_counts,
+    shortlist,
+    stop_candidates,
+    stop_headings,
+    target_weights,
+)
 from bomc_bt.change_model import ChangeModel, RegionGrid, region_rows, skipped_regions
 from bomc_bt.config import Config
-from bomc_bt.coverage_plan import plan_coverage
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.path_matrix import path_length_matrix
@@ -33,14 +41,19 @@ def budget_key(session: int) -> str:
     return f"budget/{session}"
 
 
-def last_full_pass_seconds(sessions) -> float | None:
-    """Robot time the site's last completed full pass took (None when it had none)."""
+def last_full_pass_seconds(sessions, count: int = 3) -> float | None:
+    """Robot time a full pass of the site takes: the median of its last ``count`` completed
+    full passes (one slow pass, a detour around a closed corridor, does not move it much);
+    None when it had none."""
+    times = []
     for s in sorted(sessions, key=lambda r: -r.number):
         budget = s.report.get("budget") if isinstance(s.report, dict) else None
-        full = not budget or budget.get("full_pass")
+        full = not budget or not budget.get("seconds") or budget.get("full_pass")
         if s.outcome == "completed" and full and s.started_stamp is not None and s.ended_stamp is not None:
-            return s.ended_stamp - s.started_stamp
-    return None
+            times.append(s.ended_stamp - s.started_stamp)
+        if len(times) == count:
+            break
+    return float(np.median(times)) if times else None
 
 
 def load_model(store, grid: OccupancyGrid, config: Config, before: int | None = None) -> ChangeModel:
@@ -69,7 +82,7 @@ def plan_budget_pass(grid: OccupancyGrid, dock: Pose2D, pose: Pose2D, config: Co
     which ``elapsed`` are gone (relocalization). ``full_plan`` makes the configured plan
     (for the ``cut`` strategy)."""
     p = config.budget
-    budget = PassBudget(seconds, p.strategy, p.speed, p.heading_time, started=started)
+    budget = PassBudget(seconds, p.strategy, p.speed, p.heading_time, started=started, elapsed=round(elapsed, 2))
     planner = GridPlanner(grid, config.sim.planner)
     if p.strategy == "cut":
         plan = full_plan()
@@ -78,27 +91,30 @@ def plan_budget_pass(grid: OccupancyGrid, dock: Pose2D, pose: Pose2D, config: Co
         budget.home_m = [float(h) if np.isfinite(h) else 1e6 for h in home]
         budget.stops = budget.stops_total = len(plan.waypoints)
         return TraversalPlan(waypoints, plan.euclidean_length, plan.grid_length), budget
-    covering = plan_coverage(grid, pose, view_range, config.traversal, config.sim.planner)
-    stops = np.array(covering.viewpoints, dtype=float).reshape(-1, 2)
-    dist = path_length_matrix(planner, np.vstack([np.asarray(pose.xy, float), stops]), config.traversal.path_resolution)
-    regions = model.regions
-    k = max(1, int(round(covering.target_step / grid.resolution)))
+    cands = stop_candidates(grid, planner, pose, view_range, config.traversal)
     waiting = None if p.strategy == "uniform" else model.waiting(session)
-    values = stop_values(covering.stop_targets, covering.covered.shape, covering.target_step,
-                         lambda r, c: ((r * k) // regions.n, (c * k) // regions.n), waiting)
-    service = np.array(covering.stop_headings, dtype=float) * p.heading_time
-    available = seconds * (1.0 - p.margin) - elapsed
-    tour = orienteer(dist, values, service, p.speed, available, config.traversal.max_two_opt_passes)
-    first = np.concatenate([[0], np.cumsum(covering.stop_headings)]).astype(int)
+    weights = target_weights(cands, model.regions.n, waiting)
+    available = seconds * (1.0 - p.margin) - elapsed - p.heading_time  # the dock's arrival: one heading
+    keep = shortlist(cands, weights, p.max_stops, pose.xy, available * p.speed / 2)
+    cands = cands.subset(keep)
+    dist = path_length_matrix(planner, np.vstack([np.asarray(pose.xy, float), cands.xy]),
+                              config.traversal.path_resolution)
+    value = MarginalValue(cands.views, weights)
+    service = heading_counts(grid, cands, weights, config.traversal) * p.heading_time
+    tour = orienteer(dist, value.values([]), service, p.speed, available, config.traversal.max_two_opt_passes,
+                     marginal=value.values)
     waypoints: list[Pose2D] = []
     home: list[float] = []
-    for s in tour.order:
-        views = covering.plan.waypoints[first[s]:first[s + 1]]
+    for s, views in zip(tour.order, stop_headings(grid, cands, weights, tour.order, pose, config.traversal),
+                        strict=True):
         waypoints += views
         home += [float(dist[s + 1, 0]) if np.isfinite(dist[s + 1, 0]) else 1e6] * len(views)
     waypoints.append(dock)
     budget.home_m = [*home, 0.0]
-    budget.planned_s, budget.stops, budget.stops_total = round(tour.seconds, 1), len(tour.order), len(stops)
+    budget.planned_s, budget.stops, budget.stops_total = round(tour.seconds, 1), len(tour.order), len(keep)
+    legs = [0, *(s + 1 for s in tour.order), 0]
+    budget.planned_m = round(float(sum(dist[a, b] for a, b in zip(legs[:-1], legs[1:], strict=True))), 2)
+    budget.headings = len(waypoints) - 1
     budget.expected_changes = round(float(tour.value), 3) if waiting is not None else 0.0
     pts = np.array([[w.x, w.y] for w in waypoints], dtype=float)
     return TraversalPlan(waypoints, path_length(pose.xy, pts), round(tour.seconds * p.speed, 1)), budget
@@ -120,6 +136,16 @@ def next_within_budget(state, budget: PassBudget, elapsed: float, leg: Callable[
             return i
         state.index = last  # skip to the dock
         state.current = None
+
+
+def look_time_left(budget: PassBudget | None, elapsed: float, index: int | None) -> float | None:
+    """Seconds a look-around at waypoint ``index`` may take and still leave the robot time to
+    drive home and arrive (one heading) within the budget; None without a budget."""
+    if budget is None or budget.full_pass or index is None or not budget.home_m:
+        return None
+    home = budget.home_m[min(index, len(budget.home_m) - 1)]
+    arrive = budget.heading_time if index < len(budget.home_m) - 1 else 0.0  # at the dock: there already
+    return max(0.0, budget.seconds - elapsed - home / budget.speed - arrive)
 
 
 def budget_spent(state, budget: PassBudget | None) -> bool:

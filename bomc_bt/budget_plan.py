@@ -3,9 +3,10 @@
 The full pass (:mod:`bomc_bt.coverage_plan`) visits every stop; with a budget the robot
 can afford only some, so the question is an orienteering problem: a tour from the dock
 and back to it, no longer than the budget in robot time, that collects the most value.
-A stop's value is what it is expected to find (:mod:`bomc_bt.change_model`): for each
-region, the changes waiting there times the share of the region's floor this stop sees
-first; with ``budget.strategy: uniform`` it is the floor it sees (every region alike).
+A stop's value is what it is expected to find (:mod:`bomc_bt.change_model`) that the
+stops already in the tour do not see (:mod:`bomc_bt.budget_stops`): for each region, the
+changes waiting there times the share of the region's floor it adds; with
+``budget.strategy: uniform`` it is the floor it adds (every region alike).
 
 :func:`orienteer` is a greedy insertion heuristic (as for the prize-collecting TSP): it
 starts with the empty tour dock -> dock and repeatedly inserts the stop, at its cheapest
@@ -24,6 +25,7 @@ tour (the configured full plan in order).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -42,6 +44,9 @@ class PassBudget:
     started: float = 0.0  # [s] robot time the session started (the budget counts from there)
     home_m: list[float] = field(default_factory=list)  # per waypoint: path length back to the dock
     planned_s: float = 0.0  # the tour's planned time
+    planned_m: float = 0.0  # [m] the tour's planned driving (grid path lengths, back to the dock included)
+    headings: int = 0  # the tour's headings (waypoints but the dock)
+    elapsed: float = 0.0  # [s] robot time gone when the tour was planned (relocalization)
     expected_changes: float = 0.0  # the changes the tour is expected to find (the model's)
     stops: int = 0  # stops in the tour, of ``stops_total``
     stops_total: int = 0
@@ -49,10 +54,11 @@ class PassBudget:
 
     def allows(self, elapsed: float, leg_m: float, index: int) -> bool:
         """Can the robot, ``elapsed`` seconds into the pass and ``leg_m`` from waypoint
-        ``index``, still go there, look, and get back to the dock within the budget?"""
+        ``index``, still go there, look, and get back to the dock within the budget? The
+        dock is a waypoint too: arriving there (turning to its heading) takes a heading's time."""
         if self.full_pass or index >= len(self.home_m) - 1:  # the last waypoint is the dock itself
             return True
-        need = (leg_m + self.home_m[index]) / self.speed + self.heading_time
+        need = (leg_m + self.home_m[index]) / self.speed + 2 * self.heading_time
         return elapsed + need <= self.seconds
 
     def to_json(self) -> dict:
@@ -73,11 +79,14 @@ class Tour:
 
 
 def orienteer(dist: np.ndarray, values: np.ndarray, service: np.ndarray, speed: float, budget: float,
-              max_two_opt_passes: int = 20) -> Tour:
+              max_two_opt_passes: int = 20, marginal: Callable[[list[int]], np.ndarray] | None = None) -> Tour:
     """The tour over stops 1..n of ``dist`` (metres, place 0 the dock) worth most within ``budget`` s.
 
-    ``values`` and ``service`` (seconds at each stop) are per stop (length n). A budget
-    that does not reach any stop and back gives the empty tour: the robot stays home.
+    ``values`` and ``service`` (seconds at each stop) are per stop (length n). With
+    ``marginal``, a stop's value depends on the tour: ``marginal(stops in the tour)`` gives
+    every stop's value added to it (what it sees that the tour does not yet), and the
+    tour's value is the sum of what each stop added when it was inserted. A budget that
+    does not reach any stop and back gives the empty tour: the robot stays home.
     """
     n = len(values)
     travel = np.where(np.isfinite(dist), dist, np.inf) / speed
@@ -88,7 +97,10 @@ def orienteer(dist: np.ndarray, values: np.ndarray, service: np.ndarray, speed: 
     value = np.concatenate([[0.0], np.asarray(values, float)])
     stay = np.concatenate([[0.0], np.asarray(service, float)])
     cost = _route_seconds(closed, route, stay)
+    total = 0.0
     while True:
+        if marginal is not None:
+            value = np.concatenate([[0.0], np.asarray(marginal([i - 1 for i in route[1:-1]]), float)])
         a, b = np.array(route[:-1]), np.array(route[1:])
         cand = np.nonzero(~used)[0]
         if not len(cand):
@@ -104,39 +116,19 @@ def orienteer(dist: np.ndarray, values: np.ndarray, service: np.ndarray, speed: 
         ratio = np.where(fits, value[cand] / np.maximum(extra, 1e-6), -1.0)
         k = int(np.argmax(ratio))  # ties: the lowest index, so the tour is deterministic
         route.insert(int(best_edge[k]) + 1, int(cand[k]))
+        total += float(value[cand[k]])
         used[cand[k]] = True
         if len(route) > 3:
             route = two_opt_route(np.where(np.isfinite(closed), closed, 1e9), route, max_two_opt_passes,
                                   fixed_first=True, fixed_last=True)
         cost = _route_seconds(closed, route, stay)
     order = [i - 1 for i in route[1:-1]]
-    return Tour(order, cost, float(sum(values[i] for i in order)))
+    return Tour(order, cost, total)
 
 
 def _route_seconds(closed: np.ndarray, route: list[int], stay: np.ndarray) -> float:
     drive = sum(closed[a, b] for a, b in zip(route[:-1], route[1:], strict=True))
     return float(drive + sum(stay[i] for i in route[1:-1]))
-
-
-def stop_values(stop_targets: list[np.ndarray], target_shape: tuple[int, int], target_step: float,
-                region_of_target, waiting: np.ndarray | None) -> np.ndarray:
-    """Each stop's value: the floor it sees first (``waiting`` None: uniform), or the changes
-    expected there: per region, waiting changes times the share of its floor targets seen.
-
-    ``region_of_target(rows, cols)`` gives the region (i, j) of target raster cells.
-    """
-    if waiting is None:
-        return np.array([float(len(t)) for t in stop_targets]) * target_step**2
-    rows, cols = np.divmod(np.arange(target_shape[0] * target_shape[1]), target_shape[1])
-    ti, tj = region_of_target(rows, cols)
-    ti, tj = np.clip(ti, 0, waiting.shape[0] - 1), np.clip(tj, 0, waiting.shape[1] - 1)
-    per_region = np.zeros(waiting.shape, dtype=float)
-    seen_any = np.zeros(rows.size, dtype=bool)
-    for t in stop_targets:
-        seen_any[t] = True
-    np.add.at(per_region, (ti[seen_any], tj[seen_any]), 1.0)
-    weight = np.where(per_region > 0, waiting / np.maximum(per_region, 1.0), 0.0)[ti, tj]
-    return np.array([float(weight[t].sum()) for t in stop_targets])
 
 
 def leg_length(a, b) -> float:

@@ -57,8 +57,6 @@ class CoveragePlan:
     seen_targets: int  # of them, seen by some candidate (reachable by sight)
     covered: np.ndarray = field(repr=False)  # (H, W) bool target raster: what the chosen stops see
     target_step: float = 0.25  # m between target samples (the raster's cell)
-    stop_targets: list[np.ndarray] = field(default_factory=list, repr=False)  # per stop: raster indices it saw first
-    stop_headings: list[int] = field(default_factory=list)  # per stop: how many headings it turns through
 
 
 def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params: TraversalParams | None = None,
@@ -94,7 +92,6 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
         covered[views[i]] = True
     waypoints: list[Pose2D] = []
     stops: list[tuple[float, float]] = []
-    stop_headings: list[int] = []
     at = np.asarray(start.xy, dtype=float)
     for j in order:
         p = xy[chosen[j]]
@@ -105,14 +102,13 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
         headings = headings_for(bearings, hfov, min_count, params.max_headings) or [arrive]
         waypoints += [Pose2D(float(p[0]), float(p[1]), h) for h in _turn_order(headings, arrive)]
         stops.append((float(p[0]), float(p[1])))
-        stop_headings.append(len(headings))
         at = p
     pts = np.array(stops, dtype=float).reshape(-1, 2)
     legs = [0] + [j + 1 for j in order]
     grid_length = float(sum(dist[a, b] for a, b in zip(legs[:-1], legs[1:], strict=True)))
     plan = TraversalPlan(waypoints, path_length(start.xy, pts), grid_length)
     return CoveragePlan(plan, stops, int(floor.sum()), int(seeable.sum()), covered.reshape(floor.shape),
-                        k * grid.resolution, [credited[j] for j in order], stop_headings)
+                        k * grid.resolution)
 
 
 _LEG_MARGIN = 4.0  # m of map around a leg's two ends that its path is first searched in

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from bomc_bt.algorithm_params import BudgetParams
-from bomc_bt.budget_plan import orienteer, stop_values
+from bomc_bt.budget_plan import orienteer
+from bomc_bt.budget_stops import MarginalValue, StopCandidates, shortlist, target_weights
 from bomc_bt.change_model import ChangeModel, RegionGrid, region_rows, skipped_regions
 from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid
@@ -124,13 +125,33 @@ def test_high_churn_stops_come_first_and_a_big_budget_takes_everything():
     assert sorted(everything.order) == list(range(8))
 
 
-def test_stop_values_share_a_regions_waiting_changes_by_the_floor_each_stop_sees():
-    waiting = np.array([[4.0, 0.0]])
-    targets = [np.array([0, 1, 2, 3]), np.array([4, 5]), np.array([6, 7])]  # raster 1 x 8: region = col // 4
-    values = stop_values(targets, (1, 8), 0.25, lambda r, c: (r * 0, c // 4), waiting)
-    assert values.tolist() == [4.0, 0.0, 0.0]
-    uniform = stop_values(targets, (1, 8), 0.25, lambda r, c: (r * 0, c // 4), None)
-    assert uniform.tolist() == [0.25, 0.125, 0.125]
+def candidates(views: list[list[int]], shape=(1, 8), k: int = 1) -> StopCandidates:
+    xy = np.array([[float(i), 0.0] for i in range(len(views))])
+    return StopCandidates(xy, [np.array(v, dtype=np.int64) for v in views], shape, k, 0.25)
+
+
+def test_target_weights_share_a_regions_waiting_changes_over_the_floor_seen_there():
+    cands = candidates([[0, 1, 2, 3], [4, 5], [3, 4]])  # raster 1 x 8; region = col // 4; 6, 7 unseen
+    weights = target_weights(cands, 4, np.array([[4.0, 2.0]]))
+    assert weights.tolist() == [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0]  # region 1: 2 changes over 2 seen targets
+    assert target_weights(cands, 4, None).tolist() == [0.0625] * 6 + [0.0, 0.0]
+
+
+def test_a_stop_is_worth_only_what_the_tour_does_not_see_yet():
+    value = MarginalValue([np.array([0, 1, 2, 3]), np.array([2, 3]), np.array([5])], np.array([1, 1, 1, 1, 0, 4.0]))
+    assert value.values([]).tolist() == [4.0, 2.0, 4.0]
+    assert value.values([0]).tolist() == [0.0, 0.0, 4.0]  # the second stop sees nothing new
+    cands = candidates([[0, 1, 2, 3], [2, 3], [5]], shape=(1, 6))
+    assert shortlist(cands, np.array([1, 1, 1, 1, 0, 4.0]), 5, (0.0, 0.0), 100.0) == [0, 2]
+
+
+def test_two_stops_that_see_one_room_are_not_worth_two_rooms():
+    """Stops 0 and 1 see the same hot room, stop 2 another: with the budget for two stops
+    the tour takes one of each (with fixed values it would take both views of one room)."""
+    dist = ring(3)
+    value = MarginalValue([np.array([0, 1]), np.array([0, 1]), np.array([2])], np.array([3.0, 3.0, 4.0]))
+    tour = orienteer(dist, value.values([]), np.full(3, 1.0), speed=1.0, budget=42.0, marginal=value.values)
+    assert sorted(tour.order) in ([0, 2], [1, 2]) and tour.value == pytest.approx(10.0)
 
 
 def test_a_version_3_store_is_upgraded_with_an_empty_region_history_and_read_as_it_is(tmp_path):

@@ -4,15 +4,20 @@ the later phases stay empty, and a budget too small to leave the dock plans noth
 
 from __future__ import annotations
 
+import numpy as np
 from fake_robot import key, tick
 from py_trees.common import Status
 
+from behaviours.look_around import LookAround
 from behaviours.plan_pass import PlanGapViewpoints, PlanRefreshStops, PlanTraversal
 from behaviours.waypoints import NextWaypoint, WaypointsDone
-from bomc_bt.budget_pass import budget_key
+from bomc_bt.budget_pass import budget_key, look_time_left
 from bomc_bt.budget_plan import PassBudget
 from bomc_bt.geometry import Pose2D
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph
+from bomc_bt.look_around import LookAroundParams
 from bomc_bt.monitoring import TraversalState
+from bomc_bt.robot import Status as Nav
 from bomc_bt.traversal import TraversalPlan
 
 
@@ -89,3 +94,35 @@ def test_a_budget_that_covers_the_last_full_pass_runs_the_full_pass(ctx, robot):
     gaps = PlanGapViewpoints("Gaps", None, ctx)
     tick(gaps)
     assert "budget" not in gaps.feedback_message  # the full pass's phases run as always
+
+
+def budgeted_look_around(ctx, robot, seconds: float) -> LookAround:
+    """A look-around at waypoint 0 of a budgeted pass, 4 m from home, an unconfirmed node in view."""
+    ctx.session = 2
+    ctx.graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=1),
+                            [Node(0, "chair", np.array([5.0, 8.0, 0.5]), 0.9, 1, 1)])
+    ctx.plan = TraversalPlan([Pose2D(5.0, 5.0, 0.0), Pose2D(1.0, 1.0, 0.0)], 10.0)
+    ctx.traverse = TraversalState(ctx.plan)
+    ctx.traverse.current = 0
+    ctx.budget = PassBudget(seconds, "expected_changes", speed=0.5, heading_time=4.0, started=robot.now(),
+                            home_m=[4.0, 0.0])
+    return LookAround("Look", LookAroundParams(dwell=20.0, timeout=30.0), ctx)
+
+
+def test_a_look_around_ends_when_the_budget_must_head_home(ctx, robot):
+    leaf = budgeted_look_around(ctx, robot, 20.0)  # 20 s - 4 m / 0.5 m/s - 4 s to arrive: 8 s to look
+    assert tick(leaf) == Status.RUNNING and len(robot.goals) == 1
+    robot.last.finish(Nav.SUCCEEDED, "turned")
+    assert tick(leaf) == Status.RUNNING  # a dwell of 20 s starts
+    robot.advance(7.9)
+    assert tick(leaf) == Status.RUNNING
+    robot.advance(0.2)
+    assert tick(leaf) == Status.SUCCESS and "budget" in leaf.feedback_message
+
+
+def test_a_budget_with_no_time_left_looks_at_nothing_and_a_full_pass_looks_as_always(ctx, robot):
+    leaf = budgeted_look_around(ctx, robot, 12.0)  # exactly the way home: nothing to spare
+    assert tick(leaf) == Status.SUCCESS and robot.goals == []  # not even one turn
+    assert look_time_left(ctx.budget, 0.0, 1) == 12.0  # at the dock: the rest of the budget
+    ctx.budget.full_pass = True
+    assert look_time_left(ctx.budget, 0.0, 0) is None
