@@ -4,6 +4,9 @@ Besides success, it tells whether the goal was reached by a detour: when the rob
 much farther than the map's shortest path, something the map does not have was in the way
 (``nav_detour``, which ``MarkWaypoint`` records). The shortest paths come from one
 :class:`~bomc_bt.planner.GridPlanner` on the saved map per mission (``ctx.map_planner``).
+In a pass with a budget, the drive to a tour waypoint gives up once the robot must head
+home to keep the budget (:func:`~bomc_bt.budget_pass.drive_time_left`); the dock it
+drives to whatever it takes.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from bomc_bt.budget_pass import drive_time_left
 from bomc_bt.geometry import Pose2D
 from bomc_bt.monitor_pass import reached_by_detour
 from bomc_bt.planner import GridPlanner
@@ -50,10 +54,13 @@ class NavigateTo(ActionLeaf):
                 ctx.map_planner = GridPlanner(ctx.robot.live_map(), ctx.config.sim.planner)
             self.expected = ctx.map_planner.distance((pose.x, pose.y), (self.goal.x, self.goal.y))
         self.set("nav_detour", False)
+        self.time_left = None if ctx.budget is None or ctx.traverse is None else drive_time_left(
+            ctx.budget, ctx.now() - ctx.budget.started, ctx.traverse.current)
         return handle
 
     def timeout(self) -> float:
-        return self.params.timeout
+        left = getattr(self, "time_left", None)
+        return self.params.timeout if left is None else min(self.params.timeout, left)
 
     def on_success(self) -> Status:
         driven = self.context.robot.distance_travelled - self.start_odometer
@@ -70,7 +77,8 @@ class NavigateTo(ActionLeaf):
 
     def on_timeout(self) -> Status:
         self.set("nav_failure", "timeout")
-        self.feedback_message = f"no arrival within {self.params.timeout:.0f} s"
+        self.feedback_message = f"no arrival within {self.timeout():.0f} s" + (
+            " (the budget's time to head home)" if getattr(self, "time_left", None) is not None else "")
         return Status.FAILURE
 
     def on_running(self) -> Status:

@@ -148,6 +148,15 @@ def look_time_left(budget: PassBudget | None, elapsed: float, index: int | None)
     return max(0.0, budget.seconds - elapsed - home / budget.speed - arrive)
 
 
+def drive_time_left(budget: PassBudget | None, elapsed: float, index: int | None) -> float | None:
+    """Seconds the drive to tour waypoint ``index`` may take before the robot must turn for
+    home instead (a detour around a closed door would overrun the budget); None without a
+    budget, and for the dock itself, which the robot drives to whatever it takes."""
+    if budget is None or index is None or index >= len(budget.home_m) - 1:
+        return None
+    return look_time_left(budget, elapsed, index)
+
+
 def budget_spent(state, budget: PassBudget | None) -> bool:
     """A budgeted pass is over once the dock, its last waypoint, was handed out."""
     if budget is None or budget.full_pass:

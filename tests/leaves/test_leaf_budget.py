@@ -5,10 +5,11 @@ the later phases stay empty, and a budget too small to leave the dock plans noth
 from __future__ import annotations
 
 import numpy as np
-from fake_robot import key, tick
+from fake_robot import key, tick, write_goal
 from py_trees.common import Status
 
 from behaviours.look_around import LookAround
+from behaviours.navigate import NavigateTo
 from behaviours.plan_pass import PlanGapViewpoints, PlanRefreshStops, PlanTraversal
 from behaviours.waypoints import NextWaypoint, WaypointsDone
 from bomc_bt.budget_pass import budget_key, look_time_left
@@ -126,3 +127,20 @@ def test_a_budget_with_no_time_left_looks_at_nothing_and_a_full_pass_looks_as_al
     assert look_time_left(ctx.budget, 0.0, 1) == 12.0  # at the dock: the rest of the budget
     ctx.budget.full_pass = True
     assert look_time_left(ctx.budget, 0.0, 0) is None
+
+
+def test_the_drive_to_a_tour_waypoint_gives_up_when_the_robot_must_head_home_but_not_the_drive_home(ctx, robot):
+    ctx.plan = TraversalPlan([Pose2D(9.0, 9.0, 0.0), Pose2D(1.0, 1.0, 0.0)], 20.0)
+    ctx.traverse = TraversalState(ctx.plan)
+    ctx.traverse.current = 0
+    ctx.budget = PassBudget(30.0, "expected_changes", speed=0.5, heading_time=4.0, started=robot.now(),
+                            home_m=[5.0, 0.0])
+    write_goal(Pose2D(9.0, 9.0, 0.0))
+    leaf = NavigateTo("Go", None, ctx)
+    assert tick(leaf) == Status.RUNNING and leaf.timeout() == 16.0  # 30 s - 5 m / 0.5 m/s - 4 s to arrive
+    robot.advance(16.0)
+    assert tick(leaf) == Status.FAILURE and "budget" in leaf.feedback_message
+    ctx.traverse.current = 1  # the dock
+    write_goal(Pose2D(1.0, 1.0, 0.0))
+    home = NavigateTo("Home", None, ctx)
+    assert tick(home) == Status.RUNNING and home.timeout() == home.params.timeout
