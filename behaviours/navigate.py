@@ -66,6 +66,8 @@ class NavigateTo(ActionLeaf):
         driven = self.context.robot.distance_travelled - self.start_odometer
         p = self.params
         detour = reached_by_detour(driven, self.expected, p.detour_ratio, p.detour_margin)
+        if self.context.budget is not None:
+            self.context.budget.note_leg(self.expected, driven)
         self.set("nav_detour", detour)
         way = f" by a detour ({driven:.0f} m for {self.expected:.0f} m)" if detour else ""
         self.feedback_message = f"reached ({self.goal.x:.1f}, {self.goal.y:.1f}){way}"

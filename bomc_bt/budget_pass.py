@@ -91,7 +91,7 @@ def plan_budget_pass(grid: OccupancyGrid, dock: Pose2D, pose: Pose2D, config: Co
         budget.home_m = [float(h) if np.isfinite(h) else 1e6 for h in home]
         budget.stops = budget.stops_total = len(plan.waypoints)
         return TraversalPlan(waypoints, plan.euclidean_length, plan.grid_length), budget
-    cands = stop_candidates(grid, planner, pose, view_range, config.traversal)
+    cands = stop_candidates(grid, planner, pose, p.view_range or view_range, config.traversal)
     waiting = None if p.strategy == "uniform" else model.waiting(session)
     weights = target_weights(cands, model.regions.n, waiting)
     available = seconds * (1.0 - p.margin) - elapsed - p.heading_time  # the dock's arrival: one heading
@@ -143,9 +143,9 @@ def look_time_left(budget: PassBudget | None, elapsed: float, index: int | None)
     drive home and arrive (one heading) within the budget; None without a budget."""
     if budget is None or budget.full_pass or index is None or not budget.home_m:
         return None
-    home = budget.home_m[min(index, len(budget.home_m) - 1)]
+    index = min(index, len(budget.home_m) - 1)
     arrive = budget.heading_time if index < len(budget.home_m) - 1 else 0.0  # at the dock: there already
-    return max(0.0, budget.seconds - elapsed - home / budget.speed - arrive)
+    return max(0.0, budget.seconds - elapsed - budget.home_seconds(index) - arrive)
 
 
 def drive_time_left(budget: PassBudget | None, elapsed: float, index: int | None) -> float | None:

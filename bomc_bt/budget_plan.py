@@ -51,6 +51,25 @@ class PassBudget:
     stops: int = 0  # stops in the tour, of ``stops_total``
     stops_total: int = 0
     full_pass: bool = False  # the budget covers a full pass: run one, unchanged
+    driven_m: float = 0.0  # [m] driven on the legs reached so far (NavigateTo's odometer)
+    mapped_m: float = 0.0  # [m] the saved map's path lengths of those legs
+
+    @property
+    def detour(self) -> float:
+        """How much longer the pass's legs were than the saved map says (>= 1): a corridor
+        closed since the map was made lengthens the way home too, so the way home is
+        reckoned that much longer."""
+        return max(1.0, self.driven_m / self.mapped_m) if self.mapped_m > 0 else 1.0
+
+    def note_leg(self, mapped_m: float, driven_m: float) -> None:
+        """A leg reached: ``mapped_m`` on the saved map, ``driven_m`` driven."""
+        if math.isfinite(mapped_m) and mapped_m > 0:
+            self.mapped_m += mapped_m
+            self.driven_m += driven_m
+
+    def home_seconds(self, index: int) -> float:
+        """Planned seconds from waypoint ``index`` home to the dock, detours reckoned in."""
+        return self.home_m[index] * self.detour / self.speed
 
     def allows(self, elapsed: float, leg_m: float, index: int) -> bool:
         """Can the robot, ``elapsed`` seconds into the pass and ``leg_m`` from waypoint
@@ -58,7 +77,7 @@ class PassBudget:
         dock is a waypoint too: arriving there (turning to its heading) takes a heading's time."""
         if self.full_pass or index >= len(self.home_m) - 1:  # the last waypoint is the dock itself
             return True
-        need = (leg_m + self.home_m[index]) / self.speed + 2 * self.heading_time
+        need = leg_m * self.detour / self.speed + self.home_seconds(index) + 2 * self.heading_time
         return elapsed + need <= self.seconds
 
     def to_json(self) -> dict:

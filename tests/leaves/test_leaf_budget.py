@@ -144,3 +144,14 @@ def test_the_drive_to_a_tour_waypoint_gives_up_when_the_robot_must_head_home_but
     write_goal(Pose2D(1.0, 1.0, 0.0))
     home = NavigateTo("Home", None, ctx)
     assert tick(home) == Status.RUNNING and home.timeout() == home.params.timeout
+
+
+def test_a_detour_on_the_way_out_makes_the_way_home_reckoned_longer():
+    budget = PassBudget(60.0, "expected_changes", speed=0.5, heading_time=4.0, home_m=[10.0, 0.0])
+    assert budget.allows(10.0, 2.0, 0)  # 10 + (2 + 10) / 0.5 + 8 = 42 s
+    budget.note_leg(10.0, 20.0)  # a closed corridor: twice the map's way
+    assert budget.detour == 2.0 and budget.home_seconds(0) == 40.0
+    assert not budget.allows(10.0, 2.0, 0)  # 10 + 8 + 40 + 8 = 66 s
+    assert look_time_left(budget, 10.0, 0) == 6.0
+    budget.note_leg(float("inf"), 5.0)  # a leg the map has no way for says nothing
+    assert budget.detour == 2.0
