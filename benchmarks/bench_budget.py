@@ -140,7 +140,7 @@ def table(arms: list[Arm], full_s: float, last: int) -> str:
     cut = {a.share: found_share(a) for a in arms if a.strategy == "cut"}
     full = next(a for a in arms if a.strategy is None)
     lines = ["| arm | budget | found in the next pass | x cut paper | x full | mean passes to notice (never) "
-             "| object F1 | robot time max / budget |", "|---|---|---|---|---|---|---|---|"]
+             "| object F1 | robot time / budget: mean, max (passes over) |", "|---|---|---|---|---|---|---|---|"]
     for a in arms:
         share = found_share(a)
         delay, never = mean_delay(a, last)
@@ -148,7 +148,9 @@ def table(arms: list[Arm], full_s: float, last: int) -> str:
         budget = a.share * full_s
         lines.append(f"| {a.name} | {a.share:.0%} ({budget:.0f} s) | {share:.3f} | "
                      f"{share / ref if ref else float('nan'):.2f} | {share / found_share(full):.2f} | "
-                     f"{delay:.2f} ({never}) | {sum(a.f1) / len(a.f1):.3f} | {max(a.times) / budget:.2f} |")
+                     f"{delay:.2f} ({never}) | {sum(a.f1) / len(a.f1):.3f} | "
+                     f"{sum(a.times) / len(a.times) / budget:.2f}, "
+                     f"{max(a.times) / budget:.2f} ({sum(t > budget + 1e-6 for t in a.times)}) |")
     return "\n".join(lines)
 
 
