@@ -32,6 +32,9 @@ class NavigateToParams:
     # plus detour_margin metres went around something the map does not have: a detour
     detour_ratio: float = 1.3
     detour_margin: float = 2.0  # [m] see detour_ratio
+    # [s] a budgeted pass gives up a waypoint on a detour this long before the way it came
+    # would no longer get it home in time (time to stop and turn round)
+    detour_check_ahead: float = 5.0
 
 
 @register("NavigateTo")
@@ -88,4 +91,19 @@ class NavigateTo(ActionLeaf):
         if pose is not None:
             self.context.trail.add(pose.xy)
             self.feedback_message = f"to ({self.goal.x:.1f}, {self.goal.y:.1f}), {pose.distance_to(self.goal):.1f} m"
+        if getattr(self, "time_left", None) is not None and self._detour_overruns_budget():
+            self.handle.cancel()
+            self.set("nav_failure", "budget")
+            self.feedback_message = "a detour the budget cannot afford: heading home the way it came"
+            return Status.FAILURE
         return Status.RUNNING
+
+    def _detour_overruns_budget(self) -> bool:
+        """A budgeted pass on a detour (the map's way is closed) gives up the waypoint while
+        the way it came still gets it home in time (:meth:`PassBudget.way_back_too_long`)."""
+        ctx, p = self.context, self.params
+        driven = ctx.robot.distance_travelled - self.start_odometer
+        if not reached_by_detour(driven, self.expected, p.detour_ratio, p.detour_margin):
+            return False
+        budget = ctx.budget
+        return budget.way_back_too_long(ctx.now() - budget.started + p.detour_check_ahead, ctx.robot.distance_travelled)

@@ -80,6 +80,7 @@ class PlanTraversal(Leaf):
             model = load_model(ctx.store, grid, ctx.config)
             plan, ctx.budget = plan_budget_pass(grid, ctx.dock or pose, pose, ctx.config, model, ctx.session, seconds,
                                                 ctx.now() - started, started, self.params.view_range, self.full_plan)
+            ctx.budget.odometer = ctx.robot.distance_travelled  # the way back counts from here
             write_json(ctx.site.plan_json, plan.to_json())
         ctx.store.set_progress(budget_key(ctx.session), ctx.budget.to_json())
         return plan

@@ -52,6 +52,7 @@ class PassBudget:
     stops_total: int = 0
     full_pass: bool = False  # the budget covers a full pass: run one, unchanged
     driven_m: float = 0.0  # [m] driven on the legs reached so far (NavigateTo's odometer)
+    odometer: float | None = None  # [m] the robot's odometer when the pass left the dock
     mapped_m: float = 0.0  # [m] the saved map's path lengths of those legs
 
     @property
@@ -66,6 +67,14 @@ class PassBudget:
         if math.isfinite(mapped_m) and mapped_m > 0:
             self.mapped_m += mapped_m
             self.driven_m += driven_m
+
+    def way_back_too_long(self, elapsed: float, odometer: float) -> bool:
+        """On a leg the saved map proved wrong (a detour), the one way home known to be open
+        is the way the robot came, at most all it drove since the dock: is that now too long
+        to arrive within the budget?"""
+        if self.full_pass or self.odometer is None:
+            return False
+        return elapsed + (odometer - self.odometer) / self.speed + self.heading_time > self.seconds
 
     def home_seconds(self, index: int) -> float:
         """Planned seconds from waypoint ``index`` home to the dock, detours reckoned in."""

@@ -155,3 +155,21 @@ def test_a_detour_on_the_way_out_makes_the_way_home_reckoned_longer():
     assert look_time_left(budget, 10.0, 0) == 6.0
     budget.note_leg(float("inf"), 5.0)  # a leg the map has no way for says nothing
     assert budget.detour == 2.0
+
+
+def test_a_detour_the_budget_cannot_afford_is_given_up_while_the_way_back_still_fits(ctx, robot):
+    ctx.plan = TraversalPlan([Pose2D(9.0, 1.0, 0.0), Pose2D(1.0, 1.0, 0.0)], 20.0)
+    ctx.traverse = TraversalState(ctx.plan)
+    ctx.traverse.current = 0
+    ctx.budget = PassBudget(60.0, "expected_changes", speed=0.5, heading_time=4.0, started=robot.now(),
+                            home_m=[8.0, 0.0], odometer=robot.distance_travelled)
+    write_goal(Pose2D(9.0, 1.0, 0.0))
+    leaf = NavigateTo("Go", None, ctx)
+    assert tick(leaf) == Status.RUNNING  # the map's way: 8 m
+    robot.distance_travelled += 12.0  # 12 m driven and not there: a detour
+    robot.advance(20.0)
+    assert tick(leaf) == Status.RUNNING  # 20 s + 5 s ahead + 12 m back / 0.5 m/s + 4 s = 53 s: fits
+    robot.distance_travelled += 4.0
+    robot.advance(8.0)
+    assert tick(leaf) == Status.FAILURE and key("nav_failure") == "budget"  # 28 + 5 + 32 + 4 > 60 s
+    assert robot.last.status() is Nav.CANCELLED
