@@ -93,6 +93,7 @@ class NavigateTo(ActionLeaf):
             self.feedback_message = f"to ({self.goal.x:.1f}, {self.goal.y:.1f}), {pose.distance_to(self.goal):.1f} m"
         if getattr(self, "time_left", None) is not None and self._detour_overruns_budget():
             self.handle.cancel()
+            self.context.budget.homeward = True  # no retry, no detour viewpoint: home
             self.set("nav_failure", "budget")
             self.feedback_message = "a detour the budget cannot afford: heading home the way it came"
             return Status.FAILURE

@@ -72,7 +72,7 @@ class PlanTraversal(Leaf):
         record = next((s for s in ctx.store.sessions() if s.number == ctx.session), None)
         started = record.started_stamp if record and record.started_stamp is not None else ctx.now()
         full = last_full_pass_seconds([s for s in ctx.store.sessions() if s.number != ctx.session])
-        if full is not None and seconds >= full:
+        if full is not None and seconds >= full * (1.0 - p.full_tolerance):
             ctx.budget = PassBudget(seconds, p.strategy, p.speed, p.heading_time, started=started, full_pass=True)
             plan = self.full_plan()
         else:

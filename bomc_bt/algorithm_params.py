@@ -298,6 +298,9 @@ class BudgetParams:
     speed: float = 0.55  # [m/s] average driving speed the planner assumes (slowing, turning included)
     heading_time: float = 4.5  # [s] planned time per heading at a stop (turn, look around, dwell; calibrate_budget.py)
     margin: float = 0.05  # [-] share of the budget kept back for what the plan cannot foresee
+    # [-] a budget at most this share short of a typical full pass (the median of the last
+    # three) runs the full pass: full passes vary by about this much from one to the next
+    full_tolerance: float = 0.1
     max_stops: int = 60  # [count] candidate stops the tour is planned over (those that see most value)
     # [m] how far a stop is counted to see the floor it is valued for (near enough to detect
     # and confirm objects from a few looks); 0: the camera's planned reach (projection.expect_range)
@@ -315,6 +318,8 @@ class BudgetParams:
             raise ValueError("need 0 <= seconds <= 1e7, speed > 0 and heading_time >= 0")
         if not (0 <= self.margin < 1 and 0 < self.seen_share <= 1 and self.region_size >= 0.5):
             raise ValueError("need 0 <= margin < 1, 0 < seen_share <= 1 and region_size >= 0.5")
+        if not 0 <= self.full_tolerance < 1:
+            raise ValueError("need 0 <= full_tolerance < 1")
         if not 1 <= self.max_stops <= 1000 or not 0 <= self.view_range <= 100:
             raise ValueError("need 1 <= max_stops <= 1000 and 0 <= view_range <= 100")
         if not (self.prior_rate > 0 and self.prior_weight > 0 and self.max_wait >= 1):

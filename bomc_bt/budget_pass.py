@@ -8,8 +8,8 @@ what is worth seeing (:mod:`bomc_bt.budget_stops`) and the orienteering tour ove
 (:func:`next_within_budget`, :func:`budget_spent`).
 
 A budget at least as long as the site's full passes take (:func:`last_full_pass_seconds`:
-the median of the last three) runs a full pass, unchanged: with that much time nothing
-is gained by leaving anything out.
+the median of the last three; ``budget.full_tolerance`` short of it is as good) runs a
+full pass, unchanged: with that much time nothing is gained by leaving anything out.
 """
 
 from __future__ import annotations
@@ -154,7 +154,7 @@ def drive_time_left(budget: PassBudget | None, elapsed: float, index: int | None
     budget, and for the dock itself, which the robot drives to whatever it takes."""
     if budget is None or index is None or index >= len(budget.home_m) - 1:
         return None
-    return look_time_left(budget, elapsed, index)
+    return 0.0 if budget.homeward else look_time_left(budget, elapsed, index)
 
 
 def budget_spent(state, budget: PassBudget | None) -> bool:

@@ -53,6 +53,7 @@ class PassBudget:
     full_pass: bool = False  # the budget covers a full pass: run one, unchanged
     driven_m: float = 0.0  # [m] driven on the legs reached so far (NavigateTo's odometer)
     odometer: float | None = None  # [m] the robot's odometer when the pass left the dock
+    homeward: bool = False  # a detour used up the budget: no more tour waypoints, only the dock
     mapped_m: float = 0.0  # [m] the saved map's path lengths of those legs
 
     @property
@@ -86,6 +87,8 @@ class PassBudget:
         dock is a waypoint too: arriving there (turning to its heading) takes a heading's time."""
         if self.full_pass or index >= len(self.home_m) - 1:  # the last waypoint is the dock itself
             return True
+        if self.homeward:
+            return False
         need = leg_m * self.detour / self.speed + self.home_seconds(index) + 2 * self.heading_time
         return elapsed + need <= self.seconds
 

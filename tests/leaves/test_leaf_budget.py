@@ -173,3 +173,6 @@ def test_a_detour_the_budget_cannot_afford_is_given_up_while_the_way_back_still_
     robot.advance(8.0)
     assert tick(leaf) == Status.FAILURE and key("nav_failure") == "budget"  # 28 + 5 + 32 + 4 > 60 s
     assert robot.last.status() is Nav.CANCELLED
+    retry = NavigateTo("Retry", None, ctx)
+    assert tick(retry) == Status.FAILURE  # no second try: the budget has turned home
+    assert not ctx.budget.allows(28.0, 0.0, 0) and ctx.budget.allows(28.0, 0.0, 1)  # only the dock is left
