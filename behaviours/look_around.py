@@ -13,6 +13,7 @@ import math
 
 from py_trees.common import Status
 
+from bomc_bt.budget_pass import look_time_left
 from bomc_bt.geometry import Pose2D
 from bomc_bt.look_around import LookAroundParams, plan_head_turns
 from bomc_bt.tree.action import ActionLeaf
@@ -22,7 +23,8 @@ from bomc_bt.tree.registry import register
 @register("LookAround")
 class LookAround(ActionLeaf):
     """Turns the camera towards nodes this pass has not yet confirmed, or confirmed so long
-    ago (``refresh_after``) that they may have gone since."""
+    ago (``refresh_after``) that they may have gone since. In a pass with a budget it takes
+    no longer than the budget leaves after the way home (:func:`~bomc_bt.budget_pass.look_time_left`)."""
 
     Params = LookAroundParams
     config_params = {"radius": "projection.expect_range", "refresh_after": "mission.stale_after"}
@@ -32,12 +34,18 @@ class LookAround(ActionLeaf):
         self.pose = ctx.robot.pose()
         self.turns = plan_head_turns(ctx.graph, self.pose, ctx.session, ctx.robot.live_map(), self.params,
                                      ctx.config.camera.hfov_deg, ctx.now())
+        self.time_left = None if ctx.budget is None or ctx.traverse is None else look_time_left(
+            ctx.budget, ctx.now() - ctx.budget.started, ctx.traverse.current)
         return None  # the first turn starts on the first tick, like every later one
 
     def timeout(self) -> float:
-        return self.params.timeout
+        left = getattr(self, "time_left", None)
+        return self.params.timeout if left is None else min(self.params.timeout, left)
 
     def before_poll(self) -> Status | None:
+        if self.time_left is not None and self.handle is None and self.context.now() >= self.deadline:
+            self.feedback_message = "the budget leaves no more time to look"
+            return Status.SUCCESS  # a budgeted pass: not even the rest of a dwell
         return Status.RUNNING if self.turns.dwelling(self.context.now()) else None
 
     def idle(self) -> Status:

@@ -4,6 +4,9 @@ Besides success, it tells whether the goal was reached by a detour: when the rob
 much farther than the map's shortest path, something the map does not have was in the way
 (``nav_detour``, which ``MarkWaypoint`` records). The shortest paths come from one
 :class:`~bomc_bt.planner.GridPlanner` on the saved map per mission (``ctx.map_planner``).
+In a pass with a budget, the drive to a tour waypoint gives up once the robot must head
+home to keep the budget (:func:`~bomc_bt.budget_pass.drive_time_left`); the dock it
+drives to whatever it takes.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from bomc_bt.budget_pass import drive_time_left
 from bomc_bt.geometry import Pose2D
 from bomc_bt.monitor_pass import reached_by_detour
 from bomc_bt.planner import GridPlanner
@@ -28,6 +32,9 @@ class NavigateToParams:
     # plus detour_margin metres went around something the map does not have: a detour
     detour_ratio: float = 1.3
     detour_margin: float = 2.0  # [m] see detour_ratio
+    # [s] a budgeted pass gives up a waypoint on a detour this long before the way it came
+    # would no longer get it home in time (time to stop and turn round)
+    detour_check_ahead: float = 5.0
 
 
 @register("NavigateTo")
@@ -50,15 +57,20 @@ class NavigateTo(ActionLeaf):
                 ctx.map_planner = GridPlanner(ctx.robot.live_map(), ctx.config.sim.planner)
             self.expected = ctx.map_planner.distance((pose.x, pose.y), (self.goal.x, self.goal.y))
         self.set("nav_detour", False)
+        self.time_left = None if ctx.budget is None or ctx.traverse is None else drive_time_left(
+            ctx.budget, ctx.now() - ctx.budget.started, ctx.traverse.current)
         return handle
 
     def timeout(self) -> float:
-        return self.params.timeout
+        left = getattr(self, "time_left", None)
+        return self.params.timeout if left is None else min(self.params.timeout, left)
 
     def on_success(self) -> Status:
         driven = self.context.robot.distance_travelled - self.start_odometer
         p = self.params
         detour = reached_by_detour(driven, self.expected, p.detour_ratio, p.detour_margin)
+        if self.context.budget is not None:
+            self.context.budget.note_leg(self.expected, driven)
         self.set("nav_detour", detour)
         way = f" by a detour ({driven:.0f} m for {self.expected:.0f} m)" if detour else ""
         self.feedback_message = f"reached ({self.goal.x:.1f}, {self.goal.y:.1f}){way}"
@@ -70,7 +82,8 @@ class NavigateTo(ActionLeaf):
 
     def on_timeout(self) -> Status:
         self.set("nav_failure", "timeout")
-        self.feedback_message = f"no arrival within {self.params.timeout:.0f} s"
+        self.feedback_message = f"no arrival within {self.timeout():.0f} s" + (
+            " (the budget's time to head home)" if getattr(self, "time_left", None) is not None else "")
         return Status.FAILURE
 
     def on_running(self) -> Status:
@@ -78,4 +91,20 @@ class NavigateTo(ActionLeaf):
         if pose is not None:
             self.context.trail.add(pose.xy)
             self.feedback_message = f"to ({self.goal.x:.1f}, {self.goal.y:.1f}), {pose.distance_to(self.goal):.1f} m"
+        if getattr(self, "time_left", None) is not None and self._detour_overruns_budget():
+            self.handle.cancel()
+            self.context.budget.homeward = True  # no retry, no detour viewpoint: home
+            self.set("nav_failure", "budget")
+            self.feedback_message = "a detour the budget cannot afford: heading home the way it came"
+            return Status.FAILURE
         return Status.RUNNING
+
+    def _detour_overruns_budget(self) -> bool:
+        """A budgeted pass on a detour (the map's way is closed) gives up the waypoint while
+        the way it came still gets it home in time (:meth:`PassBudget.way_back_too_long`)."""
+        ctx, p = self.context, self.params
+        driven = ctx.robot.distance_travelled - self.start_odometer
+        if not reached_by_detour(driven, self.expected, p.detour_ratio, p.detour_margin):
+            return False
+        budget = ctx.budget
+        return budget.way_back_too_long(ctx.now() - budget.started + p.detour_check_ahead, ctx.robot.distance_travelled)

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from bomc_bt.budget_pass import budget_key, last_full_pass_seconds, load_model, plan_budget_pass
+from bomc_bt.budget_plan import PassBudget
 from bomc_bt.coverage_plan import plan_coverage
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
@@ -31,13 +33,16 @@ EXPECT_RANGE = "projection.expect_range"  # where a frame counts a miss: as far 
 class PlanTraversalParams:
     clearance: float = 0.45  # [m] paper plan: waypoints closer to a wall are moved into the open
     view_range: float = 5.0  # [m] coverage plan: the camera's planned reach (projection.expect_range)
+    budget: float = 0.0  # [s] robot time for the pass; 0: the configuration's budget.seconds (0 there: a full pass)
 
 
 @register("PlanTraversal")
 class PlanTraversal(Leaf):
     """Plans the pass as ``traversal.plan`` says: viewpoints that see the saved map's floor
     in a short tour (coverage), or waypoints sampled along the build trajectory (paper);
-    on ``--resume``, picks up the saved pass at its next waypoint instead."""
+    on ``--resume``, picks up the saved pass at its next waypoint instead. With a budget
+    (``budget`` here, else ``budget.seconds``, ``bomc monitor --budget``) it plans the tour
+    of :mod:`bomc_bt.budget_pass` instead, which ends at the dock in time."""
 
     Params = PlanTraversalParams
     config_params = {"view_range": EXPECT_RANGE}
@@ -47,6 +52,9 @@ class PlanTraversal(Leaf):
         if ctx.traverse is None:
             ctx.traverse = open_pass(ctx.store, ctx.session, ctx.resume, self.plan)
             ctx.plan = ctx.traverse.plan
+            saved = ctx.store.get_progress(budget_key(ctx.session)) if ctx.budget is None else None
+            if saved:  # a resumed budgeted pass keeps the budget it planned with
+                ctx.budget = PassBudget.from_json(saved)
         ctx.progress.waypoints = len(ctx.traverse.states)
         ctx.progress.waypoint = ctx.traverse.done_count
         length = ctx.plan.grid_length or ctx.plan.euclidean_length
@@ -54,6 +62,30 @@ class PlanTraversal(Leaf):
         return Status.SUCCESS
 
     def plan(self) -> TraversalPlan:
+        seconds = self.params.budget or self.context.config.budget.seconds
+        return self.budget_plan(seconds) if seconds > 0 else self.full_plan()
+
+    def budget_plan(self, seconds: float) -> TraversalPlan:
+        """The budgeted tour; the full plan when the budget covers the site's last full pass."""
+        ctx = self.context
+        p, pose = ctx.config.budget, ctx.robot.pose()
+        record = next((s for s in ctx.store.sessions() if s.number == ctx.session), None)
+        started = record.started_stamp if record and record.started_stamp is not None else ctx.now()
+        full = last_full_pass_seconds([s for s in ctx.store.sessions() if s.number != ctx.session])
+        if full is not None and seconds >= full * (1.0 - p.full_tolerance):
+            ctx.budget = PassBudget(seconds, p.strategy, p.speed, p.heading_time, started=started, full_pass=True)
+            plan = self.full_plan()
+        else:
+            grid = ctx.robot.live_map()
+            model = load_model(ctx.store, grid, ctx.config)
+            plan, ctx.budget = plan_budget_pass(grid, ctx.dock or pose, pose, ctx.config, model, ctx.session, seconds,
+                                                ctx.now() - started, started, self.params.view_range, self.full_plan)
+            ctx.budget.odometer = ctx.robot.distance_travelled  # the way back counts from here
+            write_json(ctx.site.plan_json, plan.to_json())
+        ctx.store.set_progress(budget_key(ctx.session), ctx.budget.to_json())
+        return plan
+
+    def full_plan(self) -> TraversalPlan:
         ctx = self.context
         if ctx.config.traversal.plan == "coverage":
             covering = plan_coverage(ctx.robot.live_map(), ctx.robot.pose(), self.params.view_range,
@@ -67,6 +99,11 @@ class PlanTraversal(Leaf):
         plan.waypoints = snap_to_free(grid, plan.waypoints, self.params.clearance)
         write_json(ctx.site.plan_json, plan.to_json())
         return plan
+
+
+def _budgeted(ctx) -> bool:
+    """A pass with a budget spends it on its tour: the later phases would overrun it."""
+    return ctx.budget is not None and not ctx.budget.full_pass
 
 
 class PlanPhase(Leaf):
@@ -91,6 +128,9 @@ class PlanGapViewpoints(PlanPhase):
 
     def update(self) -> Status:
         ctx = self.context
+        if _budgeted(ctx):
+            self.feedback_message = "a pass with a budget: no gap viewpoints"
+            return Status.SUCCESS
         if ctx.traverse.planned(GAPS) or ctx.perception is None:
             self.feedback_message = "gaps already covered" if ctx.traverse.planned(GAPS) else "no perception"
             return Status.SUCCESS
@@ -114,6 +154,9 @@ class PlanRefreshStops(PlanPhase):
 
     def update(self) -> Status:
         ctx = self.context
+        if _budgeted(ctx):
+            self.feedback_message = "a pass with a budget: no refresh stops"
+            return Status.SUCCESS
         pose = ctx.robot.pose()
         if ctx.traverse.planned(REFRESH) or ctx.graph is None or pose is None:
             planned = ctx.traverse.planned(REFRESH)

@@ -9,12 +9,16 @@ candidates are :mod:`bomc_bt.monitor_pass`.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from bomc_bt.budget_pass import budget_spent, next_within_budget
+from bomc_bt.budget_plan import leg_length
 from bomc_bt.monitor_pass import DetourFinder, DetourParams, pass_exhausted, save_pass
 from bomc_bt.monitoring import DETOURED, MISSED, VISITED
+from bomc_bt.planner import GridPlanner
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
 
@@ -26,6 +30,10 @@ class WaypointsDone(Leaf):
 
     def update(self) -> Status:
         state = self.context.traverse
+        if budget_spent(state, self.context.budget):
+            state.current = None
+            self.feedback_message = "budget spent: back at the dock"
+            return Status.SUCCESS
         if not pass_exhausted(state):
             self.feedback_message = f"{len(state.states) - state.done_count} waypoints left"
             return Status.FAILURE
@@ -36,13 +44,19 @@ class WaypointsDone(Leaf):
 
 @register("NextWaypoint")
 class NextWaypoint(Leaf):
-    """Writes the next waypoint as the ``goal`` (``WaypointsDone`` said there is one)."""
+    """Writes the next waypoint as the ``goal`` (``WaypointsDone`` said there is one).
+
+    In a pass with a budget, a waypoint the robot could no longer visit and still be back
+    at the dock in time is skipped with the rest of the tour (:mod:`bomc_bt.budget_pass`).
+    """
 
     writes = ("goal",)
 
     def update(self) -> Status:
-        state = self.context.traverse
-        i = state.next()
+        ctx = self.context
+        state = ctx.traverse
+        i = state.next() if ctx.budget is None else next_within_budget(
+            state, ctx.budget, ctx.now() - ctx.budget.started, self.leg)
         if i is None:
             self.feedback_message = "all waypoints done"
             return Status.FAILURE
@@ -50,6 +64,19 @@ class NextWaypoint(Leaf):
         retry = " (retry)" if i in state.retried else ""
         self.feedback_message = f"waypoint {i + 1}/{len(state.states)}{retry}"
         return Status.SUCCESS
+
+
+    def leg(self, i: int) -> float:
+        """Metres the robot drives to waypoint ``i`` on the saved map (the budget check's leg);
+        the straight line when the map has no way."""
+        ctx = self.context
+        pose, goal = ctx.robot.pose(), ctx.traverse.waypoint(i)
+        if pose is None:
+            return 0.0
+        if ctx.map_planner is None:
+            ctx.map_planner = GridPlanner(ctx.robot.live_map(), ctx.config.sim.planner)
+        d = ctx.map_planner.distance(pose.xy, goal.xy)
+        return d if math.isfinite(d) else leg_length(pose.xy, goal.xy)
 
 
 @register("FindDetour")

@@ -281,6 +281,48 @@ class TraversalParams:
 
 
 @dataclass
+class BudgetParams:
+    """A pass with a budget of robot time (``bomc monitor --budget``): which viewpoints it
+    visits first, from the site's change model (:mod:`bomc_bt.change_model`,
+    :mod:`bomc_bt.budget_plan`)."""
+
+    seconds: float = 0.0  # [s] robot time for the whole pass, back at the dock included; 0: a full pass
+    # [choice] how a budget is spent: "expected_changes" (the viewpoints with most expected
+    # changes waiting per second, from the change model), "uniform" (most floor per second,
+    # every region alike), "cut" (the traversal.plan tour in order, cut when time runs out)
+    strategy: Literal["expected_changes", "uniform", "cut"] = "expected_changes"
+    speed: float = 0.55  # [m/s] average driving speed the planner assumes (slowing, turning included)
+    heading_time: float = 4.5  # [s] planned time per heading at a stop (turn, look around, dwell; calibrate_budget.py)
+    margin: float = 0.05  # [-] share of the budget kept back for what the plan cannot foresee
+    # [-] a budget at most this share short of a typical full pass (the median of the last
+    # three) runs the full pass: full passes vary by about this much from one to the next
+    full_tolerance: float = 0.1
+    max_stops: int = 60  # [count] candidate stops the tour is planned over (those that see most value)
+    # [m] how far a stop is counted to see the floor it is valued for (near enough to detect
+    # and confirm objects from a few looks); 0: the camera's planned reach (projection.expect_range)
+    view_range: float = 3.0
+    region_size: float = 4.0  # [m] side of the square regions the change model counts changes in
+    seen_share: float = 0.3  # [-] a region counts as seen by a pass when the camera saw this share of its floor
+    prior_rate: float = 0.3  # [count] changes per pass a region is assumed to have before any history
+    prior_weight: float = 1.0  # [count] passes' worth of weight the prior rate keeps against history
+    max_wait: int = 20  # [count] passes since last seen beyond which a region's waiting changes stop growing
+
+    def __post_init__(self) -> None:
+        if self.strategy not in ("expected_changes", "uniform", "cut"):
+            raise ValueError(f"strategy must be expected_changes, uniform or cut, not {self.strategy!r}")
+        if not (0 <= self.seconds <= 1e7 and self.speed > 0 and self.heading_time >= 0):
+            raise ValueError("need 0 <= seconds <= 1e7, speed > 0 and heading_time >= 0")
+        if not (0 <= self.margin < 1 and 0 < self.seen_share <= 1 and self.region_size >= 0.5):
+            raise ValueError("need 0 <= margin < 1, 0 < seen_share <= 1 and region_size >= 0.5")
+        if not 0 <= self.full_tolerance < 1:
+            raise ValueError("need 0 <= full_tolerance < 1")
+        if not 1 <= self.max_stops <= 1000 or not 0 <= self.view_range <= 100:
+            raise ValueError("need 1 <= max_stops <= 1000 and 0 <= view_range <= 100")
+        if not (self.prior_rate > 0 and self.prior_weight > 0 and self.max_wait >= 1):
+            raise ValueError("need prior_rate > 0, prior_weight > 0 and max_wait >= 1")
+
+
+@dataclass
 class ProjectionParams:
     """Back-projection of detections to map positions, and the camera's field of view."""
 

@@ -57,6 +57,7 @@ def parser() -> argparse.ArgumentParser:
     m.add_argument("--seed", type=arg.seed, default=0)
     m.add_argument("--tree", default=None, help="tree file (default trees/monitor.yaml)")
     m.add_argument("--resume", action="store_true", help="continue a pass that was killed")
+    m.add_argument("--budget", type=arg.budget, default=None, help="robot seconds for the pass (default: a full pass)")
     m.add_argument("--viewer", action="store_true")
     m.add_argument("--viewer-port", type=arg.port, default=8765)
     m.add_argument("--quiet", action="store_true")
@@ -88,6 +89,7 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--corridor-chairs", type=int, default=0, metavar="N",
                    help="sessions N, 2N, ... leave a chair in the middle of a corridor (default 0: never)")
     o.add_argument("--resolution", type=float, default=0.05, help="map metres per cell")
+    o.add_argument("--hot-rooms", type=float, default=0.0, help="share of rooms where most changes happen (default 0)")
     o.add_argument("--force", action="store_true", help="replace existing files")
 
     v = sub.add_parser("view", help="browse a finished site in the web viewer")
@@ -228,6 +230,8 @@ def _mission(args) -> int:
         from bomc_bt.sim.factory import SimRobots
 
         config, robots = run.build_config(args.config), SimRobots(args.world, args.seed)
+    if getattr(args, "budget", None):
+        config.budget.seconds = args.budget
     hooks, server = _live_viewer(args)
     try:
         if args.command == "build":

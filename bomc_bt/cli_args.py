@@ -40,3 +40,14 @@ def session(text: str) -> int:
 
 def session_count(text: str) -> int:
     return _integer(text, 1, 1000, "a number of sessions")
+
+
+def budget(text: str) -> float:
+    """``bomc monitor --budget``: seconds of robot time, positive and finite."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds of robot time, got {text!r}") from None
+    if not 0 < value <= 1e7:  # also refuses nan and inf
+        raise argparse.ArgumentTypeError(f"must be more than 0 and at most 1e7 seconds, got {text}")
+    return value

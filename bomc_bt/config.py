@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from bomc_bt.algorithm_params import (
+    BudgetParams,
     ExplorationParams,
     ProjectionParams,
     RecoveryParams,
@@ -71,6 +72,7 @@ class Config:
     exploration: ExplorationParams = field(default_factory=ExplorationParams)
     relocalization: RelocalizationParams = field(default_factory=RelocalizationParams)
     traversal: TraversalParams = field(default_factory=TraversalParams)
+    budget: BudgetParams = field(default_factory=BudgetParams)
     recovery: RecoveryParams = field(default_factory=RecoveryParams)
     camera: CameraParams = field(default_factory=CameraParams)
     detector: SimDetectorParams = field(default_factory=SimDetectorParams)

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
+from bomc_bt.budget_pass import pass_regions
 from bomc_bt.net_changes import NetChange, net_changes, summarize
 from bomc_bt.render import render_semantic_map, save_png
 from bomc_bt.site import write_json
@@ -63,15 +64,20 @@ def session_summary(ctx) -> dict[str, Any]:
 
 
 def write_session_report(ctx, close: bool = True, extra: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store.
+    """Write ``sessions/<n>/report.{json,md}`` and the map; ``close`` ends the session in the store,
+    with the pass's rows of the change model (:mod:`bomc_bt.change_model`).
 
     ``extra`` keys are added to the summary (a replayed pass adds ``localized`` and ``replay``).
     """
     if close:  # the history exact at the pass's end before the net changes are read from it
         ctx.store.reconcile(ctx.session, ctx.now())
-    summary = {**session_summary(ctx), **(extra or {})}
+    seen = ctx.perception.coverage.seen if ctx.perception else None
+    events = ctx.perception.events if ctx.perception else []
+    regions, budget = pass_regions(ctx.store, ctx.robot.live_map(), ctx.config, seen, events, ctx.session, ctx.now(),
+                                   getattr(ctx, "budget", None))
+    summary = {**session_summary(ctx), "budget": budget, **(extra or {})}
     if close:
-        ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()})
+        ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()}, regions)
     out = ctx.site.session_dir(ctx.session)
     write_json(out / "report.json", summary)
     (out / "report.md").write_text(report_markdown(summary))
@@ -118,6 +124,7 @@ def report_markdown(s: dict[str, Any]) -> str:
     for r in s.get("recoveries", []):
         lines.append(f"- at {r['stamp']} s: {r['trigger']}; {r['cause']}: {r['detail']}; "
                      f"did: {r['action'] or 'nothing'}{'; ' + r['result'] if r['result'] else ''}")
+    lines += _budget_lines(s.get("budget") or {})
     if s.get("reason"):
         lines.append(f"- reason: {s['reason']}")
     return "\n".join(lines) + "\n"
@@ -133,3 +140,18 @@ def _changes_markdown(changes: dict[str, Any] | None) -> list[str]:
         lines.append(f"- {NetChange.from_json(c).describe()}")
     return lines
 
+def _budget_lines(b: dict[str, Any]) -> list[str]:
+    """The budget a pass ran with and the regions it did not see, stalest first."""
+    lines = []
+    if b.get("seconds"):
+        kind = "a full pass (the budget covers the last full pass)" if b.get("full_pass") else (
+            f"{b['stops']} of {b['stops_total']} stops by {b['strategy']}, planned {b['planned_s']} s, "
+            f"{b['expected_changes']} changes expected")
+        lines.append(f"- budget: {b['seconds']} s robot time: {kind}")
+    skipped = b.get("skipped_regions") or []
+    if skipped:
+        lines.append(f"- regions not seen: {len(skipped)} of {b['regions']} (stalest first: passes since seen, "
+                     "changes expected waiting)")
+        lines += [f"  - ({r['x']}, {r['y']}): {r['passes_since_seen']} passes, {r['expected_waiting']}"
+                  for r in skipped[:10]]
+    return lines

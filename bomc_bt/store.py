@@ -9,11 +9,10 @@ open the store with ``readonly=True`` and change no byte of the site
 
 Tables:
 
-* ``schema_version`` -- one row; a file with an unknown version or without our tables is
-  refused with a :class:`BomcError` instead of being guessed at. Older stores are upgraded
-  in place by a writer, in one transaction, by adding empty columns (version 1 had no node
-  footprints, version 2 no event details): nothing in them changes meaning. A reader reads
-  a version 2 store as it is.
+* ``schema_version`` -- one row; an unknown version or a file without our tables is
+  refused (:class:`BomcError`). A writer upgrades older stores in place, in one
+  transaction, adding empty columns and tables (:mod:`bomc_bt.store_schema`): nothing in
+  them changes meaning. A reader reads versions 2 and 3 as they are.
 * ``nodes`` -- the current state of every id ever issued (removed ones with state
   ``removed``), so the next id continues from the max id ever issued; with the floor
   footprint the association learned for it (NULL when unknown).
@@ -26,6 +25,8 @@ Tables:
 * ``sessions`` -- one row per monitor pass: started/ended robot time and wall time (the
   wall time is for people reading the report, never for timing), outcome, counts, report.
 * ``progress`` -- small JSON key/value pairs for resuming a mission (next waypoint index).
+* ``region_passes`` -- per pass and map region: how much of it was seen, how many changes
+  (the change model's history, :mod:`bomc_bt.change_model`; version 4 on).
 
 Every sqlite3 failure (not a database, locked, disk full) becomes a ``BomcError`` naming
 the file: a user meets these by pointing at the wrong file or running two passes at once.
@@ -53,6 +54,7 @@ from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.store_schema import (
     EVENT_COLUMNS,
     NODE_COLUMNS,
+    REGION_COLUMNS,
     SCHEMA,
     SESSION_COLUMNS,
     checked_rows,
@@ -150,6 +152,7 @@ class SiteStore:
         self.sessions()
         self.nodes(include_removed=True)
         self.events()
+        self.region_rows()
         for (key,) in self._query("SELECT key FROM progress", (), "s", "progress"):
             self.get_progress(key)
 
@@ -188,8 +191,10 @@ class SiteStore:
             )
             return False
 
-    def end_session(self, number: int, outcome: str, summary: dict[str, Any] | None = None) -> None:
-        """Close session ``number``: reconcile history with the nodes, store counts and report.
+    def end_session(self, number: int, outcome: str, summary: dict[str, Any] | None = None,
+                    regions: list[tuple] = ()) -> None:
+        """Close session ``number``: reconcile history with the nodes, store counts and report,
+        and the pass's ``regions`` rows (:func:`bomc_bt.change_model.region_rows`).
 
         Reconciling appends an ``updated`` row for each present node whose position or
         confidence differs from its last history row (refreshes between sparse events), so
@@ -201,6 +206,7 @@ class SiteStore:
             if db.execute("SELECT 1 FROM sessions WHERE number=?", (number,)).fetchone() is None:
                 raise BomcError(f"session {number} was never begun", self.path, "sessions")
             self._reconcile(db, number, stamp)
+            db.executemany("INSERT OR REPLACE INTO region_passes VALUES (?, ?, ?, ?, ?, ?, ?)", regions)
             counts = dict(db.execute(
                 f"SELECT kind, COUNT(*) FROM node_history WHERE session=? AND kind NOT IN {_OPERATOR_SQL}"
                 " GROUP BY kind", (number,)
@@ -234,21 +240,14 @@ class SiteStore:
             stamp = last if last is not None else 0.0
         for nid, cat, x, y, z, c, hx, hy, hz, hc in rows:
             if (x, y, z, c) != (hx, hy, hz, hc):
-                db.execute(
-                    "INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence, detail)"
-                    " VALUES (?, ?, ?, 'updated', ?, ?, ?, ?, ?, '{\"reconciled\": true}')",
-                    (nid, session, stamp, cat, x, y, z, c),
-                )
+                db.execute("INSERT INTO node_history (id, session, stamp, kind, category, x, y, z, confidence,"
+                           " detail) VALUES (?, ?, ?, 'updated', ?, ?, ?, ?, ?, '{\"reconciled\": true}')",
+                           (nid, session, stamp, cat, x, y, z, c))
 
     def sessions(self) -> list[SessionRecord]:
-        rows = self._query(
-            "SELECT number, started_stamp, started_wall, ended_stamp, ended_wall, outcome, counts, report,"
-            " info FROM sessions ORDER BY number", (), SESSION_COLUMNS, "sessions"
-        )
-        return [
-            SessionRecord(n, s0, w0, s1, w1, out, counts, report, info)
-            for n, s0, w0, s1, w1, out, counts, report, info in rows
-        ]
+        rows = self._query("SELECT number, started_stamp, started_wall, ended_stamp, ended_wall, outcome, counts,"
+                           " report, info FROM sessions ORDER BY number", (), SESSION_COLUMNS, "sessions")
+        return [SessionRecord(*row) for row in rows]
 
     # ---------------------------------------------------------------- graph
     def record(
@@ -343,6 +342,11 @@ class SiteStore:
                   None if px is None else np.array([px, py, pz]), conf, text)
             for nid, sess, stamp, kind, cat, x, y, z, conf, px, py, pz, text in rows
         ]
+
+    def region_rows(self) -> list[tuple]:
+        """(session, size, i, j, seen, changes, stamp) per pass and region; none before version 4."""
+        sql = "SELECT session, size, i, j, seen, changes, stamp FROM region_passes ORDER BY session, i, j"
+        return [] if self.version < 4 else self._query(sql, (), REGION_COLUMNS, "region_passes")
 
     # ------------------------------------------------------------- progress
     def set_progress(self, key: str, value: Any) -> None:

@@ -32,13 +32,21 @@ from pathlib import Path
 
 from bomc_bt.errors import BomcError
 
-SCHEMA_VERSION = 3
-READABLE_VERSIONS = (2, 3)  # a reader reads these as they are (version 2 has no event details)
+SCHEMA_VERSION = 4
+READABLE_VERSIONS = (2, 3, 4)  # a reader reads these as they are (version 2 has no event details,
+# versions before 4 no region history: their change model is the uniform prior)
 FOOTPRINT = ("fx0", "fy0", "fx1", "fy1")
 # Upgrades, in place, from each old version: the columns it lacks (table, column). Version 2
-# added the node footprints, version 3 the event details (operator edits, removal evidence).
+# added the node footprints, version 3 the event details (operator edits, removal evidence),
+# version 4 the region history of the change model (a new table: NEW_TABLES).
 UPGRADES = {1: (("nodes", "fx0"), ("nodes", "fy0"), ("nodes", "fx1"), ("nodes", "fy1")),
-            2: (("node_history", "detail"),)}
+            2: (("node_history", "detail"),), 3: ()}
+REGION_TABLE = """CREATE TABLE IF NOT EXISTS region_passes (
+    session INTEGER NOT NULL, size REAL NOT NULL, i INTEGER NOT NULL, j INTEGER NOT NULL,
+    seen REAL NOT NULL, changes INTEGER NOT NULL, stamp REAL,
+    PRIMARY KEY (session, size, i, j));
+"""
+NEW_TABLES = {3: REGION_TABLE}  # upgrading from version 3 creates the region history (empty)
 
 SCHEMA = """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
@@ -57,7 +65,7 @@ CREATE TABLE sessions (
     number INTEGER PRIMARY KEY, started_stamp REAL, started_wall TEXT NOT NULL,
     ended_stamp REAL, ended_wall TEXT, outcome TEXT, counts TEXT, report TEXT, info TEXT);
 CREATE TABLE progress (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-"""
+""" + REGION_TABLE
 TABLES = {"schema_version", "nodes", "node_history", "sessions", "progress"}
 
 
@@ -123,6 +131,7 @@ def _upgrade_sql(db: sqlite3.Connection, version: int) -> str:
     (a column already there is skipped)."""
     statements = []
     for step in range(version, SCHEMA_VERSION):
+        statements.append(NEW_TABLES.get(step, ""))
         for table, column in UPGRADES[step]:
             have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
             if column not in have:
@@ -150,6 +159,7 @@ def _script(db: sqlite3.Connection, script: str) -> None:
 NODE_COLUMNS = "isffffiisiiFFFF"
 EVENT_COLUMNS = "iifssffffFFF"
 SESSION_COLUMNS = "iFsFSSjjj"
+REGION_COLUMNS = "ifiifiF"
 NAMES = {
     "nodes": ("id", "category", "x", "y", "z", "confidence", "first_session", "last_session", "state",
               "observations", "misses", *FOOTPRINT),
@@ -158,6 +168,7 @@ NAMES = {
     "sessions": ("number", "started_stamp", "started_wall", "ended_stamp", "ended_wall", "outcome", "counts",
                  "report", "info"),
     "progress": ("value",),
+    "region_passes": ("session", "size", "i", "j", "seen", "changes", "stamp"),
 }
 _INT_LIMIT = 2**62
 

@@ -16,7 +16,8 @@ from bomc_bt.officegen.generate import draft_office, write_office
 from bomc_bt.officegen.params import OfficeParams
 
 _OPTION = {"width": "--size", "height": "--size", "seed": "--seed", "sessions": "--sessions",
-           "churn": "--churn", "resolution": "--resolution", "corridor_chair_every": "--corridor-chairs"}
+           "churn": "--churn", "resolution": "--resolution", "corridor_chair_every": "--corridor-chairs",
+           "hot_rooms": "--hot-rooms"}
 _SIZE = re.compile(r"\s*([0-9]+(?:\.[0-9]*)?)\s*[xX]\s*([0-9]+(?:\.[0-9]*)?)\s*")
 
 
@@ -33,7 +34,8 @@ def params_from_args(args: Namespace) -> OfficeParams:
     params = OfficeParams(width=float(m.group(1)), height=float(m.group(2)), resolution=args.resolution,
                           seed=args.seed, sessions=args.sessions, static=args.static,
                           churn=0.05 if args.churn is None else args.churn,
-                          corridor_chair_every=getattr(args, "corridor_chairs", 0))
+                          corridor_chair_every=getattr(args, "corridor_chairs", 0),
+                          hot_rooms=getattr(args, "hot_rooms", 0.0))
     try:
         return params.check()
     except BomcError as exc:

@@ -18,7 +18,7 @@ import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.officegen.floor import FloorPlan
-from bomc_bt.officegen.params import ELEVATION, SIZES, OfficeParams
+from bomc_bt.officegen.params import ELEVATION, HOT_PLACE, SIZES, OfficeParams
 from bomc_bt.officegen.rooms import RoomSpace
 
 TRIES = 25  # candidate poses tried before a placement gives up
@@ -60,6 +60,7 @@ class Layout:
         self.removed: dict[str, Item] = {}  # removed earlier, may be brought back
         self.corridor: dict[str, Item] = {}  # chairs left in a corridor: they stay (officegen.corridor_chairs)
         self._counters: dict[str, int] = {}
+        self.hot: set[int] = set()  # rooms where changes concentrate (OfficeParams.hot_rooms)
 
     def new_name(self, category: str) -> str:
         slug = re.sub(r"[^a-z0-9]+", "-", category.lower()).strip("-")
@@ -98,6 +99,8 @@ class Layout:
         """Rooms in random order, big enough for a box of ``size`` (and ``min_area``)."""
         order = [int(i) for i in self.rng.permutation(len(self.plan.rooms))]
         rooms = self.plan.rooms
+        if self.hot and self.rng.random() < HOT_PLACE:  # changes happen in the hot rooms
+            order = [i for i in order if i in self.hot] + [i for i in order if i not in self.hot]
         return [i for i in order if rooms[i].rect.area >= min_area
                 and min(rooms[i].rect.width, rooms[i].rect.height) >= max(size[0], size[1]) + 0.2]
 
@@ -112,6 +115,7 @@ class Layout:
         item = self.present[name]
         self.spaces[item.room].remove(name)
         del self.present[name]
+        same_room = 1.0 if item.room in self.hot else same_room
         rooms = [item.room] if self.rng.random() < same_room else []
         rooms += self.room_for(item.size)[:4]
         for room in rooms:

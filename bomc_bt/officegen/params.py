@@ -52,6 +52,8 @@ CHURN_WEIGHT: dict[str, float] = {
     "television": 0.0,
     "door": 0.0,
 }
+HOT_WEIGHT = 25.0  # how much likelier an object in a hot room is to change (OfficeParams.hot_rooms)
+HOT_PLACE = 0.85  # share of new and returning objects placed in a hot room, when there are hot rooms
 # What appears when a session adds new objects (category, share).
 ADDED_MIX: tuple[tuple[str, float], ...] = (("chair", 0.6), ("trash bin", 0.25), ("potted plant", 0.15))
 
@@ -69,6 +71,7 @@ class OfficeParams:
     sessions: int = 3  # sessions the world describes (changes before 2..N)
     churn: float = 0.05  # share of the movable objects changed before each session >= 2
     static: bool = False  # nothing ever changes (all sessions identical)
+    hot_rooms: float = 0.0  # share of rooms where changes concentrate (HOT_WEIGHT times as likely); 0: none
     name: str = ""  # world name; empty: the output file's stem
     corridor_pitch: float = 10.0  # centre-to-centre spacing of parallel corridors
     corridor_width: tuple[float, float] = (2.0, 2.5)
@@ -112,6 +115,7 @@ class OfficeParams:
         need(isinstance(self.sessions, int) and not isinstance(self.sessions, bool) and 1 <= self.sessions <= 100,
              "sessions", "must be an integer 1 to 100")
         need(0.0 <= self.churn <= 0.5, "churn", "must be 0 to 0.5")
+        need(0.0 <= self.hot_rooms <= 1.0, "hot_rooms", "must be 0 to 1")
         need(6.0 <= self.corridor_pitch <= 40.0, "corridor_pitch", "must be 6 to 40 m")
         lo, hi = self.corridor_width
         need(1.5 <= lo <= hi <= 4.0, "corridor_width", "must be (lo, hi) with 1.5 <= lo <= hi <= 4 m")

@@ -31,7 +31,7 @@ from bomc_bt.officegen.corridor_chairs import (
 )
 from bomc_bt.officegen.floor import Corridor, FloorPlan
 from bomc_bt.officegen.layout import Item, Layout
-from bomc_bt.officegen.params import ADDED_MIX, CHURN_WEIGHT
+from bomc_bt.officegen.params import ADDED_MIX, CHURN_WEIGHT, HOT_WEIGHT
 from bomc_bt.world.records import box_corners
 
 OBSTACLE_DEPTH = 0.6  # m along the corridor
@@ -54,6 +54,9 @@ def plan_timeline(layout: Layout) -> Timeline:
     """Changes for sessions 2..N (none at all for a static world)."""
     p = layout.params
     out = Timeline()
+    if p.hot_rooms > 0 and not p.static:
+        n = max(1, int(round(p.hot_rooms * len(layout.plan.rooms))))
+        layout.hot = {int(i) for i in layout.rng.permutation(len(layout.plan.rooms))[:n]}
     for k in range(2, p.sessions + 1):
         if p.static:
             out.sessions[k] = {}
@@ -83,7 +86,8 @@ def _pick(layout: Layout, count: int, exclude: set[str] = frozenset()) -> list[s
              and CHURN_WEIGHT.get(layout.present[n].category, 0.5) > 0.0]
     if count <= 0 or not names:
         return []
-    w = np.array([CHURN_WEIGHT.get(layout.present[n].category, 0.5) for n in names])
+    w = np.array([CHURN_WEIGHT.get(layout.present[n].category, 0.5)
+                  * (HOT_WEIGHT if layout.present[n].room in layout.hot else 1.0) for n in names])
     count = min(count, len(names))
     picked = layout.rng.choice(len(names), size=count, replace=False, p=w / w.sum())
     return [names[int(i)] for i in sorted(picked)]

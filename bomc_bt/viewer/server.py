@@ -18,6 +18,7 @@ Routes:
 * ``/map.png`` -- the current occupancy map, grey, north up, one pixel per cell.
 * ``/api/diff?a=N&b=M`` -- a finished site's changes between two sessions.
 * ``/api/timeline?session=N`` -- a pass's recorded timeline, for replay (:mod:`.replay`).
+* ``/api/change_model`` -- a finished site's change model per region (the heat map, :mod:`.heatmap`).
 * ``POST /api/edit`` -- an operator's correction of a finished site (:mod:`.corrections`).
 """
 
@@ -125,10 +126,13 @@ def serve_site(site_dir: str | Path, port: int = DEFAULT_PORT, params: ViewerPar
             raise BomcError("give two session numbers: /api/diff?a=N&b=M", None, "a, b") from None
         return view.diff(a, b)
 
+    from bomc_bt.viewer.heatmap import change_model_json
+
     corrections = CorrectionsApi(view, state)
     corrections.publish()
-    return Server(state, port, api={"/api/diff": diff, **ReplayApi(view).routes()},
-                  post_api=corrections.routes()).start()
+    api = {"/api/diff": diff, "/api/change_model": lambda query: change_model_json(site_dir),
+           **ReplayApi(view).routes()}
+    return Server(state, port, api=api, post_api=corrections.routes()).start()
 
 
 def parse_event_id(text: str | None, epoch: str) -> int | None:

@@ -145,6 +145,7 @@ function initSite(site) {
   $("build").innerHTML = Object.entries(site.build || {}).filter(([, v]) => typeof v !== "object")
     .map(([k, v]) => `<tr><td>${esc(k)}</td><td>${esc(typeof v === "number" ? +v.toFixed(2) : v)}</td></tr>`).join("");
   selectSession(S.site.session, [S.site.a, S.site.b]);
+  if (window.bomcHeatmap) bomcHeatmap.load(draw);  // heatmap.js: the change model over the map
 }
 function sessionData(n) { return ((S.sections.site || {}).sessions || []).find((s) => s.number === n); }
 function selectSession(n, pair) {
@@ -260,6 +261,7 @@ function draw() {
     g.imageSmoothingEnabled = v.w < S.map.img.width;
     g.drawImage(S.map.img, v.ox, v.oy, v.w, v.h);
   }
+  if (S.sections.mode === "site" && window.bomcHeatmap) bomcHeatmap.draw(g, v, toCanvas, S.site.session);  // heatmap.js
   const px = (m) => Math.max(1, m * v.k);
   // frontiers and blacklisted goals
   g.fillStyle = COLOURS.frontier;

@@ -1,0 +1,170 @@
+"""The change model (per region: rate, last seen, changes waiting) and the budget planner
+(orienteering within a budget of robot time), and their rows in the site store."""
+
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pytest
+
+from bomc_bt.algorithm_params import BudgetParams
+from bomc_bt.budget_plan import orienteer
+from bomc_bt.budget_stops import MarginalValue, StopCandidates, shortlist, target_weights
+from bomc_bt.change_model import ChangeModel, RegionGrid, region_rows, skipped_regions
+from bomc_bt.graph import Event
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.store import SiteStore
+from bomc_bt.store_schema import SCHEMA
+
+
+def floor(width_m: float = 12.0, height_m: float = 8.0) -> OccupancyGrid:
+    return OccupancyGrid(np.zeros((int(height_m / 0.1), int(width_m / 0.1)), dtype=np.int8), 0.1, (0.0, 0.0))
+
+
+def rows_for(session: int, seen: dict, changes: dict, shape=(2, 3), size=4.0) -> list[tuple]:
+    return [(session, size, i, j, seen.get((i, j), 1.0), changes.get((i, j), 0), None)
+            for i in range(shape[0]) for j in range(shape[1])]
+
+
+def test_without_history_every_region_has_the_prior_rate_and_waits_in_proportion_to_time():
+    params = BudgetParams(prior_rate=0.3)
+    model = ChangeModel(RegionGrid(floor(), 4.0), params)
+    assert model.rate.shape == (2, 3) and np.allclose(model.rate, 0.3)
+    assert np.allclose(model.waiting(5), 0.3 * 5)
+
+
+def test_a_region_that_changes_every_pass_gets_a_high_rate_and_one_that_never_does_a_low_one():
+    params = BudgetParams(prior_rate=0.3, prior_weight=1.0)
+    history = rows_for(1, {}, {})
+    for s in range(2, 8):
+        history += rows_for(s, {}, {(0, 0): 2})
+    model = ChangeModel(RegionGrid(floor(), 4.0), params, history)
+    assert model.rate[0, 0] == pytest.approx((12 + 0.3) / 7)
+    assert model.rate[1, 2] == pytest.approx(0.3 / 7)
+    waiting = model.waiting(8)
+    assert waiting[0, 0] > 10 * waiting[1, 2]
+
+
+def test_a_region_left_unseen_accumulates_waiting_changes_until_max_wait():
+    params = BudgetParams(max_wait=3)
+    history = rows_for(1, {}, {}) + rows_for(2, {(1, 1): 0.0}, {})
+    model = ChangeModel(RegionGrid(floor(), 4.0), params, history)
+    assert model.passes_since(3)[1, 1] == 2 and model.passes_since(3)[0, 0] == 1
+    assert model.waiting(10)[1, 1] == pytest.approx(model.rate[1, 1] * 3)
+
+
+def test_pass_rows_count_changes_only_where_an_earlier_pass_looked():
+    grid = floor()
+    regions = RegionGrid(grid, 4.0)
+    model = ChangeModel(regions, BudgetParams(), rows_for(1, {(0, 1): 0.0}, {}))
+    events = [Event("added", 1, "chair", np.array([1.0, 1.0, 0.4]), 2, 5.0),  # region (0, 0): seen before
+              Event("added", 2, "chair", np.array([5.0, 1.0, 0.4]), 2, 5.0),  # region (0, 1): first look
+              Event("moved", 3, "bin", np.array([9.0, 5.0, 0.3]), 2, 6.0, np.array([1.5, 1.5, 0.3])),
+              Event("updated", 4, "chair", np.array([1.0, 1.0, 0.4]), 2, 6.0)]
+    seen = np.ones(grid.data.shape, dtype=bool)
+    rows = {(r[2], r[3]): r for r in region_rows(regions, seen, events, 2, 7.0, model)}
+    assert rows[(0, 0)][5] == 2  # the add and the move's old place
+    assert rows[(0, 1)][5] == 0
+    assert rows[(1, 2)][5] == 1  # the move's new place
+    assert all(r[4] == 1.0 for r in rows.values())
+
+
+def test_skipped_regions_name_the_regions_a_pass_did_not_see_stalest_first():
+    grid = floor()
+    regions = RegionGrid(grid, 4.0)
+    model = ChangeModel(regions, BudgetParams(), rows_for(1, {}, {}) + rows_for(2, {(1, 2): 0.0}, {}))
+    seen = np.zeros(grid.data.shape, dtype=bool)
+    seen[:40, :80] = True  # the two lower-left regions
+    rows = region_rows(regions, seen, [], 3, None, model)
+    skipped = skipped_regions(model, rows, 3)
+    assert len(skipped) == 4
+    assert skipped[0]["passes_since_seen"] == 3 and (skipped[0]["x"], skipped[0]["y"]) == (10.0, 6.0)
+
+
+def ring(n: int, radius: float = 10.0) -> np.ndarray:
+    """Distances between a dock at the centre and n stops on a circle (straight lines)."""
+    angles = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    pts = np.vstack([[0.0, 0.0], np.stack([radius * np.cos(angles), radius * np.sin(angles)], axis=1)])
+    return np.hypot(*(pts[:, None, :] - pts[None, :, :]).transpose(2, 0, 1))
+
+
+def tour_seconds(dist, order, service, speed) -> float:
+    route = [0, *[i + 1 for i in order], 0]
+    return sum(dist[a, b] for a, b in zip(route[:-1], route[1:], strict=True)) / speed + sum(service[i] for i in order)
+
+
+def test_a_budget_too_small_to_leave_the_dock_gives_the_empty_tour():
+    dist = ring(6)
+    tour = orienteer(dist, np.ones(6), np.full(6, 5.0), speed=0.5, budget=39.0)  # 10 m there and back: 40 s
+    assert tour.order == [] and tour.seconds == 0.0
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_the_tours_driving_and_dwell_never_exceed_the_budget(seed):
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(-20, 20, size=(25, 2))
+    dist = np.hypot(*(pts[:, None, :] - pts[None, :, :]).transpose(2, 0, 1)) * rng.uniform(1.0, 1.3)
+    values, service = rng.uniform(0, 3, 24), rng.uniform(2, 12, 24)
+    for budget in (30.0, 80.0, 200.0, 400.0):
+        tour = orienteer(dist, values, service, speed=0.5, budget=budget)
+        spent = tour_seconds(dist, tour.order, service, 0.5)
+        assert spent <= budget + 1e-6 and tour.seconds == pytest.approx(spent)
+        assert len(set(tour.order)) == len(tour.order)
+
+
+def test_high_churn_stops_come_first_and_a_big_budget_takes_everything():
+    dist = ring(8)
+    values = np.array([0.1, 0.1, 5.0, 0.1, 0.1, 0.1, 4.0, 0.1])
+    service = np.full(8, 4.0)
+    small = orienteer(dist, values, service, speed=0.5, budget=60.0)
+    assert small.order in ([2], [6])
+    two = orienteer(dist, values, service, speed=0.5, budget=110.0)
+    assert sorted(two.order) == [2, 6] or 2 in two.order
+    everything = orienteer(dist, values, service, speed=0.5, budget=1e4)
+    assert sorted(everything.order) == list(range(8))
+
+
+def candidates(views: list[list[int]], shape=(1, 8), k: int = 1) -> StopCandidates:
+    xy = np.array([[float(i), 0.0] for i in range(len(views))])
+    return StopCandidates(xy, [np.array(v, dtype=np.int64) for v in views], shape, k, 0.25)
+
+
+def test_target_weights_share_a_regions_waiting_changes_over_the_floor_seen_there():
+    cands = candidates([[0, 1, 2, 3], [4, 5], [3, 4]])  # raster 1 x 8; region = col // 4; 6, 7 unseen
+    weights = target_weights(cands, 4, np.array([[4.0, 2.0]]))
+    assert weights.tolist() == [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0]  # region 1: 2 changes over 2 seen targets
+    assert target_weights(cands, 4, None).tolist() == [0.0625] * 6 + [0.0, 0.0]
+
+
+def test_a_stop_is_worth_only_what_the_tour_does_not_see_yet():
+    value = MarginalValue([np.array([0, 1, 2, 3]), np.array([2, 3]), np.array([5])], np.array([1, 1, 1, 1, 0, 4.0]))
+    assert value.values([]).tolist() == [4.0, 2.0, 4.0]
+    assert value.values([0]).tolist() == [0.0, 0.0, 4.0]  # the second stop sees nothing new
+    cands = candidates([[0, 1, 2, 3], [2, 3], [5]], shape=(1, 6))
+    assert shortlist(cands, np.array([1, 1, 1, 1, 0, 4.0]), 5, (0.0, 0.0), 100.0) == [0, 2]
+
+
+def test_two_stops_that_see_one_room_are_not_worth_two_rooms():
+    """Stops 0 and 1 see the same hot room, stop 2 another: with the budget for two stops
+    the tour takes one of each (with fixed values it would take both views of one room)."""
+    dist = ring(3)
+    value = MarginalValue([np.array([0, 1]), np.array([0, 1]), np.array([2])], np.array([3.0, 3.0, 4.0]))
+    tour = orienteer(dist, value.values([]), np.full(3, 1.0), speed=1.0, budget=42.0, marginal=value.values)
+    assert sorted(tour.order) in ([0, 2], [1, 2]) and tour.value == pytest.approx(10.0)
+
+
+def test_a_version_3_store_is_upgraded_with_an_empty_region_history_and_read_as_it_is(tmp_path):
+    path = tmp_path / "site.db"
+    db = sqlite3.connect(path)
+    db.executescript(SCHEMA.split("CREATE TABLE IF NOT EXISTS region_passes")[0]
+                     + "INSERT INTO schema_version VALUES (3);")
+    db.close()
+    with SiteStore(path, readonly=True) as reader:
+        assert reader.version == 3 and reader.region_rows() == []
+    with SiteStore(path) as writer:
+        assert writer.version == 4 and writer.region_rows() == []
+        writer.begin_session(1, {"stamp": 0.0})
+        writer.end_session(1, "completed", {"stamp": 9.0}, [(1, 4.0, 0, 0, 0.5, 0, 9.0)])
+    with SiteStore(path, readonly=True) as reader:
+        assert reader.region_rows() == [(1, 4.0, 0, 0, 0.5, 0, 9.0)]
