@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from bomc_bt import store as store_module
+from bomc_bt import store_schema
 from bomc_bt.graph import AssociationParams, Event, ObjectGraph, Observation
 from bomc_bt.net_changes import NetChange, net_changes, summarize
 from bomc_bt.store import SiteStore
@@ -100,4 +101,4 @@ def test_a_version_2_store_is_read_as_it_is_and_upgraded_by_a_writer(tmp_path):
         store.record([ev("removed", 1, 3.0, session=1, misses=5, last_seen=0.5)], [])
         assert [(e.node_id, e.misses) for e in store.events()] == [(0, None), (1, 5)]
     with sqlite3.connect(path) as con:
-        assert con.execute("SELECT version FROM schema_version").fetchone()[0] == 3
+        assert con.execute("SELECT version FROM schema_version").fetchone()[0] == store_schema.SCHEMA_VERSION

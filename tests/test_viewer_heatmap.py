@@ -76,12 +76,14 @@ def pixel(b: Browser, xy: tuple[float, float]) -> list[int]:
     return b.evaluate(f"bomcViewer.pixelAtWorld({xy[0]}, {xy[1]})")
 
 
-def test_the_heat_map_is_red_where_changes_wait_and_goes_away_when_turned_off(browser, tmp_path):
+def test_the_heat_map_is_red_where_changes_wait_once_turned_on_and_goes_away_when_turned_off(browser, tmp_path):
     server = serve_site(make_site(tmp_path), port=0)
     try:
         browser.open(server.url + "?session=3")
         browser.wait_for("!!document.getElementById('heatmap-toggle') && !!bomcViewer.state.map.img",
                          what="the heat map and the map loaded")
+        assert pixel(browser, HOT)[:3] == [FREE_GREY] * 3  # off at first: the plain map
+        browser.evaluate("document.getElementById('heatmap-toggle').click()")
         browser.evaluate("window.dispatchEvent(new Event('resize'))")  # one more draw with both
         hot, cold, plain = pixel(browser, HOT), pixel(browser, COLD), pixel(browser, (2.0, 6.0))
         assert hot[0] > 200 and hot[1] < 150 and hot[2] < 150, hot  # strong red over the white floor

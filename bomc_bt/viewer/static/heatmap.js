@@ -3,11 +3,11 @@
 // waiting there at the next pass (rate per pass x passes since a pass last saw it). The
 // regions the selected session skipped (a pass with a budget) are outlined, dashed. app.js
 // calls bomcHeatmap.load(redraw) once a site is shown and bomcHeatmap.draw(...) right after
-// drawing the map image, so objects and paths stay on top. A checkbox under the map turns it off.
+// drawing the map image, so objects and paths stay on top. A checkbox under the map turns it on (off at first: the plain map).
 "use strict";
 
 const bomcHeatmap = (() => {
-  const H = { data: null, on: true, requested: false, max: 0 };
+  const H = { data: null, on: false, requested: false, max: 0 };  // off until asked: the plain map first
   const FILL = [214, 40, 30];  // red; alpha grows with the changes waiting
   const MIN_ALPHA = 0.08, MAX_ALPHA = 0.6;
 
@@ -31,7 +31,7 @@ const bomcHeatmap = (() => {
     const legend = document.getElementById("legend");
     const label = document.createElement("label");
     label.className = "heatmap-toggle";
-    label.innerHTML = `<input type="checkbox" id="heatmap-toggle" checked> heat map: changes expected waiting ` +
+    label.innerHTML = `<input type="checkbox" id="heatmap-toggle"> heat map: changes expected waiting ` +
       `(most ${H.max.toFixed(2)} in a ${H.data.size_m} m square; dashed: skipped by the session)`;
     legend.parentNode.insertBefore(label, legend.nextSibling);
     label.querySelector("input").addEventListener("change", (e) => { H.on = e.target.checked; redraw(); });
