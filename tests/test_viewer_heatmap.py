@@ -9,8 +9,7 @@ import urllib.request
 from pathlib import Path
 
 import numpy as np
-import pytest
-from browser import INSTALL_HINT, Browser, BrowserError, find_chromium
+from browser import Browser
 
 from bomc_bt.grid import OccupancyGrid, save_map
 from bomc_bt.site import write_json
@@ -43,18 +42,6 @@ def make_site(root: Path) -> Path:
             skipped = ((1, 1),) if n == 3 else ()
             store.end_session(n, "completed", report, region_rows(n, {(0, 0): 3} if n > 1 else {}, skipped))
     return root
-
-
-@pytest.fixture(scope="module")
-def browser():
-    if find_chromium() is None:
-        pytest.skip(INSTALL_HINT)
-    try:
-        b = Browser()
-    except BrowserError as exc:
-        pytest.skip(f"headless Chromium did not start ({exc}); {INSTALL_HINT}")
-    yield b
-    b.close()
 
 
 def test_the_api_gives_each_regions_waiting_changes_and_the_regions_a_budgeted_pass_skipped(tmp_path):
