@@ -20,7 +20,7 @@ from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observati
 from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.site import open_site
 from bomc_bt.store import SiteStore
-from bomc_bt.store_schema import SCHEMA
+from bomc_bt.store_schema import SCHEMA, SCHEMA_VERSION
 from bomc_bt.world import load_world
 
 PERFECT = "detector: {preset: perfect}\n"
@@ -124,7 +124,7 @@ def test_edits_are_operator_events_in_the_history(session_one, tmp_path):
         result = bomc("edit", str(site), *args)
         assert result.returncode == 0 and words in result.stdout and "session 2" in result.stdout, result.stderr
     with SiteStore(site / "site.db", readonly=True) as store:
-        assert store.version == 3
+        assert store.version == SCHEMA_VERSION
         assert len(store.events()) == robot_events  # a pass's events stay the robot's
         edits = [e for e in store.events(operator=True) if e.by_operator]
         assert [e.kind for e in edits] == ["relabelled", "noted", "deleted", "restored"]
@@ -185,7 +185,7 @@ def test_a_version_2_store_is_read_as_it_is_and_upgraded_by_an_edit(session_one,
     assert snapshot(site, mtimes=True) == before  # read as it is, not upgraded by a reader
     assert bomc("edit", str(site), "note", "2", "checked").returncode == 0
     with SiteStore(site / "site.db", readonly=True) as store:
-        assert store.version == 3 and store.events(operator=True)[-1].detail["text"] == "checked"
+        assert store.version == SCHEMA_VERSION and store.events(operator=True)[-1].detail["text"] == "checked"
 
 
 # ---------------------------------------------------------- later passes respect them
