@@ -3,7 +3,7 @@
 // waiting there at the next pass (rate per pass x passes since a pass last saw it). The
 // regions the selected session skipped (a pass with a budget) are outlined, dashed. app.js
 // calls bomcHeatmap.load(redraw) once a site is shown and bomcHeatmap.draw(...) right after
-// drawing the map image, so objects and paths stay on top. A checkbox under the map turns it on (off at first: the plain map).
+// drawing the map image, so objects and paths stay on top. A checkbox over the map's corner turns it on (off at first: the plain map).
 "use strict";
 
 const bomcHeatmap = (() => {
@@ -28,12 +28,16 @@ const bomcHeatmap = (() => {
 
   function addToggle(redraw) {
     if (document.getElementById("heatmap-toggle")) return;
-    const legend = document.getElementById("legend");
+    // over the map's top-right corner, not below it: the canvas keeps its size whether or not
+    // the site has a change model (a floor read from the central store has none)
+    const wrap = document.getElementById("map").parentNode;
     const label = document.createElement("label");
     label.className = "heatmap-toggle";
+    label.style.cssText = "position:absolute; top:6px; right:8px; z-index:2; font-size:12px; " +
+      "background:rgba(255,255,255,.85); padding:2px 6px; border-radius:4px;";
     label.innerHTML = `<input type="checkbox" id="heatmap-toggle"> heat map: changes expected waiting ` +
       `(most ${H.max.toFixed(2)} in a ${H.data.size_m} m square; dashed: skipped by the session)`;
-    legend.parentNode.insertBefore(label, legend.nextSibling);
+    wrap.appendChild(label);
     label.querySelector("input").addEventListener("change", (e) => { H.on = e.target.checked; redraw(); });
   }
 
