@@ -28,9 +28,7 @@ from bomc_bt.sim.navigation import NavHandle
 def robot_state(robot) -> dict[str, Any]:
     """``robot`` (a :class:`~bomc_bt.sim.robot.SimRobot`) at this step, JSON-able."""
     t = robot._true
-    obstacles = None
-    if robot._obstacles is not None:
-        obstacles = {"mask": pack_mask(robot._obstacles.mask), "version": int(robot._obstacles.version)}
+    obstacles = None if robot._obstacles is None else _obstacle_state(robot._obstacles)
     return {
         "kind": "sim",
         "session": robot.session,
@@ -50,6 +48,16 @@ def robot_state(robot) -> dict[str, Any]:
         "stuck": bool(robot._stuck),
         "navigation": _navigation_state(robot.navigator),
     }
+
+
+def _obstacle_state(layer) -> dict[str, Any]:
+    """The obstacle layer, packed once per version: a pass commits with every frame, and
+    packing an Environment-A-size mask costs milliseconds while the layer rarely changes."""
+    cached = getattr(layer, "_packed", None)
+    if cached is None or cached[0] != layer.version:
+        cached = (layer.version, pack_mask(layer.mask))
+        layer._packed = cached
+    return {"mask": cached[1], "version": int(layer.version)}
 
 
 def _navigation_state(nav) -> dict[str, Any] | None:
@@ -116,6 +124,7 @@ def restore_robot(robot, state: dict[str, Any]) -> None:
     if saved is not None and robot._obstacles is not None:
         robot._obstacles.mask[:] = unpack_mask(saved["mask"], robot._obstacles.mask.shape).astype(bool)
         robot._obstacles.version = int(saved["version"])
+        robot._obstacles._packed = None  # the mask was replaced under the same version number
         robot.planners.use_map(robot._map, robot._obstacles)
     for name, value in state["rng"].items():
         if name in _STREAMS:
