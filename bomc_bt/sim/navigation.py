@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -39,6 +40,7 @@ class NavHandle(RequestHandle):
 
 
 PlannerSource = Callable[[], GridPlanner]
+GoalPlannerSource = Callable[[np.ndarray, np.ndarray], Any]  # (start, goal) -> a planner for that goal
 PathCheck = Callable[[np.ndarray, float], bool]  # (path ahead, metres to skip) -> still clear?
 
 
@@ -63,7 +65,7 @@ class Navigator:
         self._at_position = False
 
     # -- goals ---------------------------------------------------------------------------
-    def start(self, goal: Pose2D, pose: Pose2D, now: float, planner: PlannerSource,
+    def start(self, goal: Pose2D, pose: Pose2D, now: float, planner: GoalPlannerSource,
               static_planner: PlannerSource) -> NavHandle:
         """Begin driving to ``goal`` from the estimated ``pose`` (pre-empts the old goal)."""
         if self.handle is not None:
@@ -75,7 +77,7 @@ class Navigator:
         self._best = math.inf
         self._last_progress = now
         self._fail_at = math.inf
-        current = planner()
+        current = planner(pose.xy, goal.xy)
         if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
             handle.finish(Status.BLOCKED, "goal is inside an obstacle")
             return handle
@@ -111,7 +113,7 @@ class Navigator:
             self.handle._message = "driving"
 
     # -- per step ------------------------------------------------------------------------
-    def update(self, pose: Pose2D, now: float, planner: PlannerSource, path_clear: PathCheck,
+    def update(self, pose: Pose2D, now: float, planner: GoalPlannerSource, path_clear: PathCheck,
                stuck: bool) -> tuple[float, float]:
         """The (v, w) command for this step from the estimated ``pose``; updates the status.
 
@@ -178,14 +180,14 @@ class Navigator:
         self.path = None
         return 0.0, 0.0
 
-    def _check_path(self, pose: Pose2D, planner: PlannerSource, path_clear: PathCheck,
+    def _check_path(self, pose: Pose2D, planner: GoalPlannerSource, path_clear: PathCheck,
                     stuck: bool) -> tuple[float, float] | None:
         """Replan when the current path is no longer clear, there is none, or we are stuck."""
         assert self.handle is not None
         if self.path is not None and not stuck and path_clear(self._ahead(pose), self.params.body_radius):
             return None
-        current = planner()
         goal = self.handle.goal
+        current = planner(pose.xy, goal.xy)
         if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
             return self._end(Status.BLOCKED, "goal is inside an obstacle")
         path = current.plan(pose.xy, goal.xy)

@@ -163,7 +163,7 @@ class SimRobot:
         self.people.step(p.dt, self._true.xy, p.motion.body_radius)
         v, w = 0.0, 0.0
         if self._localized and self.navigator.active:
-            v, w = self.navigator.update(self._estimate, now, self.planners.live, self.planners.path_clear,
+            v, w = self.navigator.update(self._estimate, now, self.planners.around, self.planners.path_clear,
                                            self._stuck)
         self._move(v, w, p.dt)
         self._update_relocalization(now)
@@ -283,7 +283,7 @@ class SimRobot:
             handle = NavHandle(goal)
             handle.finish(Status.FAILED, "no map in use")
             return handle
-        return self.navigator.start(goal, self._estimate, self.now(), self.planners.live, self.planners.static)
+        return self.navigator.start(goal, self._estimate, self.now(), self.planners.around, self.planners.static)
 
     def clear_costmaps(self) -> None:
         """Empty the obstacle layer (monitor); the next scan starts refilling it at once."""
