@@ -308,6 +308,6 @@ class Perception:
         self.frames += 1
         self.last_frame = FrameSeen(frame.stamp, frame.shape[::-1], detections, observations)
         if self.store is not None:  # every frame: the resume point moves on even without events
-            self.store.record(events, changed, frame_progress(self, self.robot))
+            self.store.record(events, changed, frame_progress(self, self.robot), durable=False)
         self.events.extend(events)
         return FrameResult(len(detections), len(observations), len(expected), events)

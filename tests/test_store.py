@@ -88,6 +88,25 @@ def test_record_is_atomic(tmp_path):
     store.close()
 
 
+def test_a_frame_commit_without_a_disk_sync_is_atomic_and_leaves_later_commits_durable(tmp_path):
+    """A pass's per-frame commits skip the disk sync (a kill loses nothing); a failed one
+    still writes nothing, and the connection syncs again for every other commit."""
+    store = SiteStore(tmp_path / "site.db")
+    graph = store.load_graph(ROBUST)
+    store.begin_session(1)
+    events = graph.associate([o("chair", 0, 0)], [], 1, 0.0)
+    bad = Event("added", 99, "chair", np.array([np.nan, 0.0, 0.0]), 1, 0.0)
+    with pytest.raises(ValueError):
+        store.record([events[0], bad], graph.drain_changed(), progress={"resume/1": {"frames": 1}}, durable=False)
+    assert store.events() == [] and store.get_progress("resume/1") is None
+    assert store._db.execute("PRAGMA synchronous").fetchone()[0] == 2  # FULL again
+    store.record(events, graph.nodes.values(), progress={"resume/1": {"frames": 1}}, durable=False)
+    assert store._db.execute("PRAGMA synchronous").fetchone()[0] == 2
+    store.close()
+    with SiteStore(tmp_path / "site.db") as again:  # another process sees the frame
+        assert len(again.events()) == 1 and again.get_progress("resume/1") == {"frames": 1}
+
+
 def test_resume_progress_and_unfinished_session(tmp_path):
     with SiteStore(tmp_path / "site.db") as store:
         store.begin_session(1, {"stamp": 5.0})
