@@ -37,6 +37,12 @@ robot failed to see) is.
 
 Session 1 has no previous pass: it is scored against the empty map, so every object
 present when it ended is an addition and ``added`` reads like the object protocol.
+
+**First seen**: a node added where no earlier pass had looked (:mod:`bomc_bt.first_seen`)
+is new to the map, not a change the pass predicts: it is neither a true positive nor a
+false one, only counted (``first_seen``). A true addition at such a place stays a miss:
+nothing could have told it from an object that was always there. Against the empty map
+(session 1) nothing is first seen, so session 1's scores are as before.
 """
 
 from __future__ import annotations
@@ -48,7 +54,8 @@ import numpy as np
 
 from bomc_bt.evaluation import ClassScores, match_pairs, scores
 from bomc_bt.graph import EVENT_KINDS, Event
-from bomc_bt.net_changes import net_changes
+from bomc_bt.net_changes import first_seen_count as count_first_seen
+from bomc_bt.net_changes import net_changes, only_changes
 
 CHANGE_KINDS = ("removed", "added", "moved")
 Threshold = Callable[[str], float]
@@ -93,6 +100,7 @@ class ChangeResult:
     missed: list[ObjectChange] = field(default_factory=list)  # false negatives
     wrong: list[ObjectChange] = field(default_factory=list)  # false positives, phantoms included
     phantoms: list[ObjectChange] = field(default_factory=list)
+    first_seen: int = 0  # nodes new to the map where no earlier pass looked: reported apart, not scored
 
 
 def _xyz(p) -> np.ndarray:
@@ -123,8 +131,15 @@ def true_changes(before: Mapping[str, tuple[str, np.ndarray]], after: Mapping[st
 
 def reported_changes(events: Sequence[Event], since: int | None, threshold: Threshold) -> list[ObjectChange]:
     """The map's net changes over the passes after ``since`` (:func:`bomc_bt.net_changes.net_changes`),
-    as :class:`ObjectChange` records keyed by node id; ``events``: the history up to the pass's end."""
-    return [ObjectChange(c.kind, c.node_id, c.category, c.old, c.new) for c in net_changes(events, since, threshold)]
+    as :class:`ObjectChange` records keyed by node id; ``events``: the history up to the pass's end.
+    First-seen nodes are no predicted change and are left out (:func:`first_seen_count`)."""
+    return [ObjectChange(c.kind, c.node_id, c.category, c.old, c.new)
+            for c in only_changes(net_changes(events, since, threshold))]
+
+
+def first_seen_count(events: Sequence[Event], since: int | None, threshold: Threshold) -> int:
+    """How many nodes the passes after ``since`` found new to the map (not scored as changes)."""
+    return count_first_seen(net_changes(events, since, threshold))
 
 
 def raw_event_counts(events: Sequence[Event]) -> dict[str, int]:

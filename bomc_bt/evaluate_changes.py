@@ -19,6 +19,7 @@ import numpy as np
 from bomc_bt.change_evaluation import (
     CHANGE_KINDS,
     ChangeResult,
+    first_seen_count,
     raw_event_counts,
     reported_changes,
     score_changes,
@@ -53,7 +54,9 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
     truth = true_changes(truth_at_end(previous), truth_at_end(session), threshold)
     net = reported_changes(history, previous, threshold)
     events = [e for e in history if e.session == session]
-    return score_changes(truth, net, threshold, session, previous, raw_event_counts(events))
+    result = score_changes(truth, net, threshold, session, previous, raw_event_counts(events))
+    result.first_seen = first_seen_count(history, previous, threshold)
+    return result
 
 
 def _r(x: float | None) -> float | None:
@@ -72,6 +75,7 @@ def changes_to_json(result: ChangeResult) -> dict[str, Any]:
     out["overall"] = _kind_json(result.overall)
     out["phantom"] = result.phantom
     out["raw_events"] = dict(result.raw_events)
+    out["first_seen"] = result.first_seen
     return out
 
 
@@ -92,7 +96,8 @@ def format_changes(result: ChangeResult) -> str:
         lines.append(f"{name:<16} {s.gt:>4} {s.mapped:>4} {s.tp:>4} {s.fp:>4} {s.fn:>4} "
                      f"{f(s.precision):>6} {f(s.recall):>6} {f(s.f1):>6}")
     raw = ", ".join(f"{k} {v}" for k, v in result.raw_events.items())
-    lines.append(f"phantom {result.phantom}; raw events {raw or 'none'}")
+    lines.append(f"phantom {result.phantom}; first seen {result.first_seen} (new to the map, not scored); "
+                 f"raw events {raw or 'none'}")
     phantom_ids = {id(c) for c in result.phantoms}
     lines += [f"  missed:  {describe(c)}" for c in result.missed]
     lines += [f"  {'phantom:' if id(c) in phantom_ids else 'wrong:  '} {describe(c)}" for c in result.wrong]

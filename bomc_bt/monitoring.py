@@ -266,7 +266,9 @@ class Perception:
 
     ``graph`` and ``store`` are the pass's :class:`~bomc_bt.graph.ObjectGraph` and
     :class:`~bomc_bt.store.SiteStore` (the store may be None: nothing is persisted);
-    ``grid`` is the saved map the observed area is counted on. With a store, every frame
+    ``grid`` is the saved map the observed area is counted on; with ``seen_before``
+(:mod:`bomc_bt.first_seen`) an addition at a place no earlier pass saw is marked first
+seen before it is written. With a store, every frame
     is committed with the pass's resume point (:mod:`bomc_bt.pass_resume`), taken from
     ``robot`` where it can give its state.
     """
@@ -281,6 +283,7 @@ class Perception:
     grid: InitVar[OccupancyGrid]
     occlusion_check: bool = True
     robot: Any = None  # the robot whose state a frame's commit saves (None: none saved)
+    seen_before: Any = None  # first_seen.SeenBefore: what earlier passes saw (None: unknown, nothing marked)
     coverage: Coverage = field(init=False)
     fov_since: list = field(default_factory=list)  # view polygons since the last coverage snapshot
     frames: int = 0  # frames processed
@@ -304,6 +307,8 @@ class Perception:
         weights = miss_weights(frame, expected, self.params) if self.occlusion_check else None
         events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
                                       in_view=[n.id for n in candidates], miss_weights=weights)
+        if self.seen_before is not None:  # an addition where no earlier pass looked is new to the map
+            self.seen_before.mark(events)
         changed = self.graph.drain_changed()
         self.frames += 1
         self.last_frame = FrameSeen(frame.stamp, frame.shape[::-1], detections, observations)

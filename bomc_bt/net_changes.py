@@ -9,7 +9,11 @@ compares each node that had an event in it:
   present -> present farther than ``threshold(category)``: ``moved``;
 * anything else (removed and found again, moved away and back, a nudge) is no change;
 * a node folded into another as a duplicate (a removal with ``merged_into``) is no change
-  either: the object is still there, under the other node's id.
+  either: the object is still there, under the other node's id;
+* absent -> present where the event that added the node in the period was marked first
+  seen (no earlier pass had seen that place, :mod:`bomc_bt.first_seen`): ``first_seen``,
+  new to the map and not a change. It is listed apart and is no change an evaluation
+  scores. From the empty map (``since=None``) every new node is ``added``.
 
 Each :class:`NetChange` carries its evidence: for a removal the frames that counted the
 object missing before it was taken off and when it was last seen; for a move how far it
@@ -26,16 +30,19 @@ from typing import Any
 
 import numpy as np
 
+from bomc_bt.first_seen import is_first_seen
 from bomc_bt.graph import Event
 
-NET_KINDS = ("removed", "added", "moved")
+NET_KINDS = ("removed", "added", "moved")  # the changes
+FIRST_SEEN = "first_seen"  # a node new to the map where no earlier pass looked: not a change
+REPORTED_KINDS = (*NET_KINDS, FIRST_SEEN)  # what net_changes returns, in its order
 
 
 @dataclass
 class NetChange:
     """One node's change over a period. ``old`` is None for an addition, ``new`` for a removal."""
 
-    kind: str  # "removed" | "added" | "moved"
+    kind: str  # "removed" | "added" | "moved" | "first_seen"
     node_id: int
     category: str
     old: np.ndarray | None  # where it stood when the period began (a removal: where it was last)
@@ -77,6 +84,8 @@ class NetChange:
         what = f"{self.category} #{self.node_id}"
         if self.kind == "added":
             text = f"added {what} at {at(self.new)}"
+        elif self.kind == FIRST_SEEN:
+            text = f"first seen {what} at {at(self.new)} (no earlier pass saw this place)"
         elif self.kind == "moved":
             text = f"moved {what} {at(self.old)} -> {at(self.new)}, {self.distance:.2f} m"
         else:
@@ -107,8 +116,11 @@ def net_changes(events: Sequence[Event], since: int | None,
     period = [e for e in events if since is None or e.session > since]
     after = _replay(period)
     counts: dict[int, int] = {}
+    first_added: dict[int, Event] = {}
     for e in period:
         counts[int(e.node_id)] = counts.get(int(e.node_id), 0) + 1
+        if e.kind == "added":
+            first_added.setdefault(int(e.node_id), e)
     out = []
     for nid in sorted(after):
         b, a = before.get(nid), after[nid]
@@ -124,11 +136,23 @@ def net_changes(events: Sequence[Event], since: int | None,
             out.append(NetChange("removed", nid, a.category, pos, None, 0.0, a.misses, a.last_seen, a.session,
                                  a.stamp, counts[nid], bool((a.detail or {}).get("merged", False))))
         elif now and not was:
-            out.append(NetChange("added", nid, a.category, None, pos, 0.0, None, None, a.session, a.stamp,
-                                 counts[nid]))
-    return sorted(out, key=lambda c: (NET_KINDS.index(c.kind), c.node_id))
+            new_to_map = since is not None and nid in first_added and is_first_seen(first_added[nid])
+            out.append(NetChange(FIRST_SEEN if new_to_map else "added", nid, a.category, None, pos, 0.0, None,
+                                 None, a.session, a.stamp, counts[nid]))
+    return sorted(out, key=lambda c: (REPORTED_KINDS.index(c.kind), c.node_id))
 
 
 def summarize(changes: Sequence[NetChange]) -> dict[str, int]:
-    """How many net changes of each kind (every kind listed)."""
+    """How many net changes of each kind (every kind listed; first-seen nodes are no change:
+    :func:`first_seen_count`)."""
     return {k: sum(c.kind == k for c in changes) for k in NET_KINDS}
+
+
+def first_seen_count(changes: Sequence[NetChange]) -> int:
+    """How many of ``changes`` are nodes new to the map (``first_seen``)."""
+    return sum(c.kind == FIRST_SEEN for c in changes)
+
+
+def only_changes(changes: Sequence[NetChange]) -> list[NetChange]:
+    """The changes among ``changes``: first-seen nodes left out (new to the map, not changed)."""
+    return [c for c in changes if c.kind in NET_KINDS]

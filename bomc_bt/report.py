@@ -12,7 +12,8 @@ from collections import Counter
 from typing import Any
 
 from bomc_bt.budget_pass import pass_regions
-from bomc_bt.net_changes import NetChange, net_changes, summarize
+from bomc_bt.net_changes import FIRST_SEEN, NET_KINDS, NetChange, first_seen_count, net_changes, summarize
+from bomc_bt.pass_resume import coverage_key, pack_mask
 from bomc_bt.render import render_semantic_map, save_png
 from bomc_bt.site import write_json
 from bomc_bt.tree.leaf import read_key
@@ -30,9 +31,11 @@ def pass_changes(ctx) -> tuple[int | None, list[NetChange]]:
 
 
 def changes_summary(ctx) -> dict[str, Any]:
-    """The report's ``changes`` key: counts per kind and one record per changed node."""
+    """The report's ``changes`` key: counts per kind and one record per changed node; the
+    first-seen nodes (new to the map, not changes) are counted apart and listed with them."""
     previous, changes = pass_changes(ctx)
-    return {"since_session": previous, "counts": summarize(changes), "nodes": [c.to_json() for c in changes]}
+    return {"since_session": previous, "counts": summarize(changes), "nodes": [c.to_json() for c in changes],
+            "first_seen": first_seen_count(changes)}
 
 
 def session_summary(ctx) -> dict[str, Any]:
@@ -76,8 +79,9 @@ def write_session_report(ctx, close: bool = True, extra: dict[str, Any] | None =
     regions, budget = pass_regions(ctx.store, ctx.robot.live_map(), ctx.config, seen, events, ctx.session, ctx.now(),
                                    getattr(ctx, "budget", None))
     summary = {**session_summary(ctx), "budget": budget, **(extra or {})}
-    if close:
-        ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()}, regions)
+    if close:  # with what the camera saw: the next passes tell first-seen objects from added ones
+        final = {} if seen is None else {coverage_key(ctx.session): pack_mask(seen)}
+        ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()}, regions, final)
     out = ctx.site.session_dir(ctx.session)
     write_json(out / "report.json", summary)
     (out / "report.md").write_text(report_markdown(summary))
@@ -131,13 +135,19 @@ def report_markdown(s: dict[str, Any]) -> str:
 
 
 def _changes_markdown(changes: dict[str, Any] | None) -> list[str]:
+    """The changes, then apart the first-seen nodes (new to the map where no pass had looked)."""
     if not changes:
         return []
     since = "the empty map" if changes["since_session"] is None else f"session {changes['since_session']}"
     counts = ", ".join(f"{k} {v}" for k, v in changes["counts"].items())
     lines = ["", f"## Changes since {since}: {counts}", ""]
-    for c in changes["nodes"]:
-        lines.append(f"- {NetChange.from_json(c).describe()}")
+    records = [NetChange.from_json(c) for c in changes["nodes"]]
+    lines += [f"- {c.describe()}" for c in records if c.kind in NET_KINDS]
+    first = [c for c in records if c.kind == FIRST_SEEN]
+    if first:
+        lines += ["", f"## First seen: {len(first)} (new to the map where no earlier pass had looked; "
+                  "not changes)", ""]
+        lines += [f"- {c.describe()}" for c in first]
     return lines
 
 def _budget_lines(b: dict[str, Any]) -> list[str]:

@@ -206,9 +206,10 @@ class SiteStore:
             return False
 
     def end_session(self, number: int, outcome: str, summary: dict[str, Any] | None = None,
-                    regions: list[tuple] = ()) -> None:
+                    regions: list[tuple] = (), progress: dict[str, Any] | None = None) -> None:
         """Close session ``number``: reconcile history with the nodes, store counts and report,
-        and the pass's ``regions`` rows (:func:`bomc_bt.change_model.region_rows`).
+        the pass's ``regions`` rows (:func:`bomc_bt.change_model.region_rows`) and ``progress``
+        keys (the pass's final coverage mask, :mod:`bomc_bt.first_seen`), all in one transaction.
 
         Reconciling appends an ``updated`` row for each present node whose position or
         confidence differs from its last history row (refreshes between sparse events), so
@@ -221,6 +222,8 @@ class SiteStore:
                 raise BomcError(f"session {number} was never begun", self.path, "sessions")
             self._reconcile(db, number, stamp)
             db.executemany("INSERT OR REPLACE INTO region_passes VALUES (?, ?, ?, ?, ?, ?, ?)", regions)
+            for key, value in (progress or {}).items():
+                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
             counts = dict(db.execute(
                 f"SELECT kind, COUNT(*) FROM node_history WHERE session=? AND kind NOT IN {_OPERATOR_SQL}"
                 " GROUP BY kind", (number,)

@@ -147,6 +147,11 @@ class AssociationParams:
     # [-] a detection nearer to where the operator deleted an object of its category than to
     # any node counts only at this confidence or more (bomc_bt.graph.operator_edits)
     readd_confidence: float = 0.95
+    # [m] how far from the floor an earlier pass saw a newly added object may stand and
+    # still count as appearing there ("added", a change); farther it is "first_seen": new to
+    # the map, not a change (bomc_bt.first_seen). About half an object's depth: a door's
+    # centre lies in its wall, a table's beyond the near edge the camera saw
+    first_seen_margin: float = 0.3
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -178,6 +183,8 @@ class AssociationParams:
             raise ValueError("footprint_touch must be >= 0")
         if not 0.0 <= self.readd_confidence <= 1.0:
             raise ValueError("readd_confidence must be in [0, 1]")
+        if not 0.0 <= self.first_seen_margin <= 10.0:
+            raise ValueError("first_seen_margin must be in [0, 10] m")
 
     def distance(self, category: str) -> float:
         """delta_c: the association distance of ``category``."""

@@ -131,9 +131,11 @@ def event_json(event: Any) -> str:
 
 def summary_json(session: int, changes: dict[str, Any]) -> str:
     """The end-of-pass message on the events topic: ``{"kind": "summary", "session": N,
-    "since_session": P, "counts": {...}, "changes": [...]}`` (records as the session report's)."""
+    "since_session": P, "counts": {...}, "changes": [...], "first_seen": K}`` (records as the
+    session report's; ``first_seen``: nodes new to the map, listed among the records as such)."""
     return json.dumps({"kind": "summary", "session": int(session), "since_session": changes["since_session"],
-                       "counts": changes["counts"], "changes": changes["nodes"]})
+                       "counts": changes["counts"], "changes": changes["nodes"],
+                       "first_seen": changes.get("first_seen", 0)})
 
 
 class MissionPublisher:

@@ -95,7 +95,7 @@ def _describe(c: dict[str, Any]) -> str:
     if c["kind"] == "removed":
         words += f" at {at(c['old'])}: " + ("merged into a neighbour" if c["merged"] else
                                            f"missing in {_or_unknown(c['missing_frames'])} frame(s)")
-    elif c["kind"] == "added":
+    elif c["kind"] in ("added", "first_seen"):  # first seen: new to the map where no earlier pass looked
         words += f" at {at(c['new'])}"
     else:
         words += f" {at(c['old'])} -> {at(c['new'])}, {c['moved_m']:.2f} m"

@@ -11,7 +11,7 @@ import numpy as np
 from bomc_bt.central.connection import is_central
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import AssociationParams, Event, Node
-from bomc_bt.net_changes import net_changes
+from bomc_bt.net_changes import REPORTED_KINDS, net_changes
 from bomc_bt.viewer.sections import change_json, events_section, node_json, rounded
 from bomc_bt.viewer.store import Sections, StateStore, ViewerParams
 
@@ -115,7 +115,7 @@ class SiteView:
         history = [e for n in sorted(self.events) if n <= hi for e in self.events[n]]
         changes = net_changes(history, lo if lo > 0 else None, self.threshold)
         items = [change_json(c, backwards=a > b) for c in changes]
-        return {"a": a, "b": b, **{k: [i for i in items if i["kind"] == k] for k in ("added", "removed", "moved")}}
+        return {"a": a, "b": b, **{k: [i for i in items if i["kind"] == k] for k in REPORTED_KINDS}}
 
     def _build(self) -> dict[str, Any]:
         payload = self._file(None if self.central else self.site.build_json, "map/build.json")

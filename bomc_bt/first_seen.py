@@ -1,0 +1,123 @@
+"""First seen or added: was an object new to the map, or did it appear where a pass had looked?
+
+An object appearing where no earlier pass looked is not a change: the map simply had not
+seen that place (a room pass 1 did not enter, a corner its budget skipped, a door beyond
+the camera's reach). Only an object appearing where an earlier pass looked and saw
+nothing is *added*. On an Environment-A-size floor 20 of session 2's 23 net additions
+were of the first kind; reported as "added" they are work an operator cannot act on.
+
+What each pass saw is its camera's floor coverage (:class:`bomc_bt.monitoring.Coverage`,
+the depth-limited view polygons of every frame), saved per session in the store's
+``progress`` table under ``coverage/<n>`` (:func:`bomc_bt.pass_resume.coverage_key`):
+each waypoint's commit writes a snapshot for resuming, and the session's end writes the
+final mask in the same transaction that closes it (:meth:`SiteStore.end_session
+<bomc_bt.store.SiteStore.end_session>`). A site's ``site.db`` belongs to one map
+generation (a re-build with ``--new-map`` archives it), so the masks in it are all on the
+current map; the central store syncs the ``progress`` rows with the rest.
+
+At the start of a pass :func:`load_seen_before` takes the union of the masks of every
+earlier recorded pass, widened by ``association.first_seen_margin`` ([m]: an object's
+centre lies a little beyond the floor the view fan reached -- a door in its wall, a
+table's centre behind its near edge), and :meth:`SeenBefore.mark` marks each ``added``
+event at a place outside it with ``{"first_seen": true}`` in the event's ``detail``
+(which travels to the central store with the event).
+:func:`bomc_bt.net_changes.net_changes` then reports the node as ``first_seen``, not
+``added``.
+
+The claim is only made on evidence. A pass with no earlier pass (the first of a map:
+scored against the empty map, everything is an addition) marks nothing. Neither does a
+pass when any earlier pass left no mask (a site recorded before the masks were saved, a
+pass killed before its first waypoint, a site pulled from a store without them): what
+that pass saw is unknown, and unknown counts as seen, so its additions stay ``added`` as
+before (the old behaviour, never a true change hidden as "new to the map").
+"""
+
+from __future__ import annotations
+
+import base64
+import zlib
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from bomc_bt.errors import BomcError
+from bomc_bt.graph import Event
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.pass_resume import coverage_key, unpack_mask
+
+FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail
+
+
+def is_first_seen(event: Event) -> bool:
+    """Whether ``event`` added its node at a place no earlier pass had seen."""
+    return event.kind == "added" and bool((event.detail or {}).get(FIRST_SEEN, False))
+
+
+@dataclass
+class SeenBefore:
+    """The floor earlier passes saw (widened by the margin) on ``grid``'s cells."""
+
+    grid: OccupancyGrid
+    seen: np.ndarray  # bool (H, W): True where an earlier pass saw the floor (margin included)
+
+    def saw(self, xy: np.ndarray) -> np.ndarray:
+        """Bool per (x, y) point: an earlier pass saw that place (off the map: never)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        rows, cols = self.grid.world_to_cell(xy[:, 0], xy[:, 1])
+        inside = self.grid.in_bounds(rows, cols)
+        out = np.zeros(len(xy), dtype=bool)
+        out[inside] = self.seen[rows[inside], cols[inside]]
+        return out
+
+    def mark(self, events: list[Event]) -> int:
+        """Mark the ``added`` events at places no earlier pass saw as first seen; how many."""
+        added = [e for e in events if e.kind == "added"]
+        if not added:
+            return 0
+        saw = self.saw(np.array([np.asarray(e.position, dtype=float)[:2] for e in added]))
+        for event, seen in zip(added, saw, strict=True):
+            if not seen:
+                event.detail = {**(event.detail or {}), FIRST_SEEN: True}
+        return int(np.count_nonzero(~saw))
+
+
+def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float) -> SeenBefore | None:
+    """What the recorded passes before ``session`` saw, or None where it is not known (see the
+    module docstring: no earlier pass, or one without a saved mask)."""
+    earlier = [s.number for s in store.sessions() if s.number < session]
+    if not earlier:
+        return None
+    union = np.zeros(grid.data.shape, dtype=bool)
+    for number in earlier:
+        mask = saved_coverage(store, number, grid.data.shape)
+        if mask is None:
+            return None
+        union |= mask
+    return SeenBefore(grid, widen(union, margin / grid.resolution))
+
+
+def saved_coverage(store, session: int, shape: tuple[int, int]) -> np.ndarray | None:
+    """The floor pass ``session`` saw (bool, ``shape``), None when it saved none; a mask that
+    is not one of this map is a corrupt store (one line naming the progress key)."""
+    key = coverage_key(session)
+    text = store.get_progress(key)
+    if text is None:
+        return None
+    try:
+        bits = zlib.decompress(base64.b64decode(text, validate=True)) if isinstance(text, str) else None
+    except (ValueError, zlib.error):  # binascii.Error is a ValueError
+        bits = None
+    if bits is None or len(bits) != -(-int(np.prod(shape)) // 8):
+        raise BomcError(f"corrupt site store: the saved coverage of session {session} is not a mask of this "
+                        f"map ({shape[1]} x {shape[0]} cells)", store.path, f"progress.{key}")
+    return unpack_mask(text, shape).astype(bool)
+
+
+def widen(mask: np.ndarray, cells: float) -> np.ndarray:
+    """``mask`` grown by a disc of ``cells`` radius (0: as it is)."""
+    radius = int(np.ceil(cells))
+    if radius <= 0 or not mask.any():
+        return mask.copy()
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+    return cv2.dilate(mask.astype(np.uint8), disc).astype(bool)
