@@ -6,14 +6,20 @@ the camera's reach). Only an object appearing where an earlier pass looked and s
 nothing is *added*. On an Environment-A-size floor 20 of session 2's 23 net additions
 were of the first kind; reported as "added" they are work an operator cannot act on.
 
-What each pass saw is its camera's floor coverage (:class:`bomc_bt.monitoring.Coverage`,
-the depth-limited view polygons of every frame), saved per session in the store's
-``progress`` table under ``coverage/<n>`` (:func:`bomc_bt.pass_resume.coverage_key`):
-each waypoint's commit writes a snapshot for resuming, and the session's end writes the
-final mask in the same transaction that closes it (:meth:`SiteStore.end_session
-<bomc_bt.store.SiteStore.end_session>`). A site's ``site.db`` belongs to one map
-generation (a re-build with ``--new-map`` archives it), so the masks in it are all on the
-current map; the central store syncs the ``progress`` rows with the rest.
+What each pass looked at is its camera's floor coverage within reach
+(``Perception.looked`` in :mod:`bomc_bt.monitoring`: each frame's depth-limited view fan,
+cut back to ``projection.expect_range``, the range within which a detector is expected to
+see an object, so that not seeing one there is evidence; farther, the graph does not count
+a miss either). It is saved per session in the store's ``progress`` table under
+``looked/<n>`` (:func:`bomc_bt.pass_resume.looked_key`) beside the whole fans
+(``coverage/<n>``): each waypoint's commit writes a snapshot for resuming, and the
+session's end writes the final masks in the same transaction that closes it
+(:meth:`SiteStore.end_session <bomc_bt.store.SiteStore.end_session>`). A pass recorded
+before ``looked/<n>`` existed left its ``coverage/<n>`` snapshot (the whole fans, up to its
+last waypoint): that is used instead, which sees more and so claims fewer first sightings.
+A site's ``site.db`` belongs to one map generation (a re-build with ``--new-map`` archives
+it), so the masks in it are all on the current map; the central store syncs the
+``progress`` rows with the rest.
 
 At the start of a pass :func:`load_seen_before` takes the union of the masks of every
 earlier recorded pass, widened by ``association.first_seen_margin`` ([m]: an object's
@@ -26,7 +32,7 @@ event at a place outside it with ``{"first_seen": true}`` in the event's ``detai
 
 The claim is only made on evidence. A pass with no earlier pass (the first of a map:
 scored against the empty map, everything is an addition) marks nothing. Neither does a
-pass when any earlier pass left no mask (a site recorded before the masks were saved, a
+pass when any earlier pass left no mask at all (a site recorded before the masks were saved, a
 pass killed before its first waypoint, a site pulled from a store without them): what
 that pass saw is unknown, and unknown counts as seen, so its additions stay ``added`` as
 before (the old behaviour, never a true change hidden as "new to the map").
@@ -44,7 +50,7 @@ import numpy as np
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.pass_resume import coverage_key, unpack_mask
+from bomc_bt.pass_resume import coverage_key, looked_key, unpack_mask
 
 FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail
 
@@ -90,17 +96,20 @@ def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float) ->
         return None
     union = np.zeros(grid.data.shape, dtype=bool)
     for number in earlier:
-        mask = saved_coverage(store, number, grid.data.shape)
+        mask = saved_coverage(store, number, grid.data.shape, looked_key(number))
+        if mask is None:  # a pass that saved only its whole view fans: those (more seen, fewer claims)
+            mask = saved_coverage(store, number, grid.data.shape)
         if mask is None:
             return None
         union |= mask
     return SeenBefore(grid, widen(union, margin / grid.resolution))
 
 
-def saved_coverage(store, session: int, shape: tuple[int, int]) -> np.ndarray | None:
-    """The floor pass ``session`` saw (bool, ``shape``), None when it saved none; a mask that
-    is not one of this map is a corrupt store (one line naming the progress key)."""
-    key = coverage_key(session)
+def saved_coverage(store, session: int, shape: tuple[int, int], key: str | None = None) -> np.ndarray | None:
+    """The floor pass ``session`` saw (bool, ``shape``) as saved under ``key`` (default: its
+    whole view fans), None when it saved none; a mask that is not one of this map is a corrupt
+    store (one line naming the progress key)."""
+    key = key or coverage_key(session)
     text = store.get_progress(key)
     if text is None:
         return None

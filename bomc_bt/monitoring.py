@@ -242,6 +242,16 @@ class Coverage:
         return sorted(regions, key=lambda r: -r["area_m2"])
 
 
+def within_range(polygon: np.ndarray, camera: np.ndarray, reach: float) -> np.ndarray:
+    """The view fan ``polygon`` (vertices seen from ``camera``) cut back to ``reach`` metres:
+    each vertex farther away is pulled in along its ray."""
+    poly = np.asarray(polygon, dtype=float).reshape(-1, 2)
+    offset = poly - np.asarray(camera, dtype=float).reshape(1, 2)
+    distance = np.hypot(offset[:, 0], offset[:, 1])
+    scale = np.minimum(1.0, reach / np.maximum(distance, 1e-9))
+    return poly - offset + offset * scale[:, None]
+
+
 @dataclass(frozen=True)
 class FrameSeen:
     """What the last frame showed: the pass's timeline records it (:mod:`bomc_bt.timeline`)."""
@@ -285,13 +295,18 @@ seen before it is written. With a store, every frame
     robot: Any = None  # the robot whose state a frame's commit saves (None: none saved)
     seen_before: Any = None  # first_seen.SeenBefore: what earlier passes saw (None: unknown, nothing marked)
     coverage: Coverage = field(init=False)
+    # the floor seen within projection.expect_range (where a missed object is evidence of its
+    # absence): what later passes tell first-seen objects from added ones by (bomc_bt.first_seen)
+    looked: Coverage = field(init=False)
     fov_since: list = field(default_factory=list)  # view polygons since the last coverage snapshot
+    looked_since: list = field(default_factory=list)  # their parts within expect_range, likewise
     frames: int = 0  # frames processed
     events: list = field(default_factory=list)  # every event of the pass, in order
     last_frame: FrameSeen | None = None  # the latest frame's detections, for the timeline
 
     def __post_init__(self, grid: OccupancyGrid) -> None:
         self.coverage = Coverage(grid)
+        self.looked = Coverage(grid)
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)
@@ -302,6 +317,9 @@ seen before it is written. With a store, every frame
         self.coverage.add(polygon)
         if polygon is not None and len(polygon) >= 3:
             self.fov_since.append(np.asarray(polygon, dtype=float).tolist())
+            near = within_range(polygon, frame.T_map_camera[:2, 3], self.params.expect_range)
+            self.looked.add(near)
+            self.looked_since.append(near.tolist())
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
         expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates
         weights = miss_weights(frame, expected, self.params) if self.occlusion_check else None

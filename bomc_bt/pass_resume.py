@@ -15,7 +15,8 @@ same SQLite transaction, a *resume point* (progress key ``resume/<session>``):
   misses, move candidates, first sightings; :meth:`ObjectGraph.pass_state`);
 * ``frames`` and ``fov_since``: frames processed and the view polygons since the last
   coverage snapshot, which the waypoint commit writes (``coverage/<session>``, packed), so
-  the camera's observed area survives the kill too.
+  the camera's observed area survives the kill too; ``looked_since`` and ``looked/<session>``
+  likewise for the part of it within ``projection.expect_range`` (:mod:`bomc_bt.first_seen`).
 
 The plan's position (``traverse/<session>``) is the waypoint in flight: a resumed pass
 drives on to it from the restored pose. Only the frames after the last commit are lost.
@@ -38,6 +39,11 @@ def coverage_key(session: int) -> str:
     return f"coverage/{session}"
 
 
+def looked_key(session: int) -> str:
+    """The floor the pass saw within ``projection.expect_range`` (:mod:`bomc_bt.first_seen`)."""
+    return f"looked/{session}"
+
+
 def resume_point(perception, robot) -> dict[str, Any]:
     """The pass's state at this moment (see the module docstring)."""
     checkpoint = getattr(robot, "checkpoint", None)
@@ -46,6 +52,7 @@ def resume_point(perception, robot) -> dict[str, Any]:
         "graph": perception.graph.pass_state(),
         "frames": perception.frames,
         "fov_since": perception.fov_since,
+        "looked_since": perception.looked_since,
     }
 
 
@@ -57,9 +64,15 @@ def frame_progress(perception, robot) -> dict[str, Any]:
 def waypoint_progress(perception, robot) -> dict[str, Any]:
     """The progress keys a waypoint's commit writes besides the plan: a coverage snapshot
     and the resume point (whose list of view polygons starts again after the snapshot)."""
-    perception.fov_since = []
+    perception.fov_since, perception.looked_since = [], []
+    return {**coverage_masks(perception), resume_key(perception.session): resume_point(perception, robot)}
+
+
+def coverage_masks(perception) -> dict[str, str]:
+    """The progress keys of the pass's coverage masks, packed: the whole view fans and their
+    parts within reach (a waypoint's snapshot, and the final masks the session's end writes)."""
     return {coverage_key(perception.session): pack_mask(perception.coverage.seen),
-            resume_key(perception.session): resume_point(perception, robot)}
+            looked_key(perception.session): pack_mask(perception.looked.seen)}
 
 
 def restore_pass(store, session: int, robot, perception) -> bool:
@@ -74,12 +87,15 @@ def restore_pass(store, session: int, robot, perception) -> bool:
     removed = {n.id: n for n in store.nodes(include_removed=True) if n.state != "present"}
     perception.graph.restore_pass_state(point.get("graph") or {}, removed)
     perception.frames = int(point.get("frames", 0))
-    snapshot = store.get_progress(coverage_key(session))
-    if snapshot is not None:
-        perception.coverage.seen[:] = unpack_mask(snapshot, perception.coverage.seen.shape)
-    for polygon in point.get("fov_since", []):
-        perception.coverage.add(np.asarray(polygon, dtype=float))
+    for coverage, key, since in ((perception.coverage, coverage_key(session), "fov_since"),
+                                 (perception.looked, looked_key(session), "looked_since")):
+        snapshot = store.get_progress(key)
+        if snapshot is not None:
+            coverage.seen[:] = unpack_mask(snapshot, coverage.seen.shape)
+        for polygon in point.get(since, []):
+            coverage.add(np.asarray(polygon, dtype=float))
     perception.fov_since = list(point.get("fov_since", []))
+    perception.looked_since = list(point.get("looked_since", []))
     perception.events = list(store.events(session=session))
     return point.get("robot") is not None and callable(restore)
 

@@ -13,7 +13,7 @@ from typing import Any
 
 from bomc_bt.budget_pass import pass_regions
 from bomc_bt.net_changes import FIRST_SEEN, NET_KINDS, NetChange, first_seen_count, net_changes, summarize
-from bomc_bt.pass_resume import coverage_key, pack_mask
+from bomc_bt.pass_resume import coverage_masks
 from bomc_bt.render import render_semantic_map, save_png
 from bomc_bt.site import write_json
 from bomc_bt.tree.leaf import read_key
@@ -80,7 +80,7 @@ def write_session_report(ctx, close: bool = True, extra: dict[str, Any] | None =
                                    getattr(ctx, "budget", None))
     summary = {**session_summary(ctx), "budget": budget, **(extra or {})}
     if close:  # with what the camera saw: the next passes tell first-seen objects from added ones
-        final = {} if seen is None else {coverage_key(ctx.session): pack_mask(seen)}
+        final = coverage_masks(ctx.perception) if ctx.perception else {}
         ctx.store.end_session(ctx.session, ctx.outcome, {**summary, "stamp": ctx.now()}, regions, final)
     out = ctx.site.session_dir(ctx.session)
     write_json(out / "report.json", summary)
