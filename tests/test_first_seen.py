@@ -157,6 +157,7 @@ def test_objects_pass_1_never_saw_are_first_seen_and_a_new_bin_where_it_looked_i
     from bomc_bt.grid import load_map
     from bomc_bt.officegen import OfficeParams, generate_office
     from bomc_bt.site.query import open_site
+    from bomc_bt.viewer.site import SiteView
     from bomc_bt.world import load_world
 
     world_path, site = tmp_path / "office.yaml", tmp_path / "site"
@@ -201,6 +202,10 @@ def test_objects_pass_1_never_saw_are_first_seen_and_a_new_bin_where_it_looked_i
     with open_site(site) as reader:
         (pass_2,) = reader.changes(since=1)
     assert sorted(c.kind for c in pass_2.changes) == sorted(c["kind"] for c in report["nodes"])
+    # the viewer's difference of sessions 1 and 2 lists them apart from the additions
+    diff = SiteView(site).diff(1, 2)
+    assert [n["id"] for n in diff["first_seen"]] == [c["node"] for c in by_kind["first_seen"]]
+    assert [n["id"] for n in diff["added"]] == [c["node"] for c in by_kind["added"]]
     # bomc evaluate: the first-seen objects were always there; they are no false additions
     result = evaluate_changes(world_path, site, 2, config)
     assert result.first_seen == report["first_seen"] and result.kinds["added"].tp == 1
