@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bomc_bt.algorithm_params import BudgetParams
+from bomc_bt.first_seen import is_first_seen
 from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid
 
@@ -135,8 +136,8 @@ def region_rows(regions: RegionGrid, seen: np.ndarray, events: Iterable[Event], 
     seen_cells = regions.per_region(seen.astype(bool) & regions.grid.free_mask())
     share = np.where(floor > 0, seen_cells / np.maximum(floor, 1), 0.0)
     points = []
-    for e in events:
-        if e.kind in CHANGE_KINDS and e.session == session:
+    for e in events:  # an object first seen (no pass had looked there) is no change either
+        if e.kind in CHANGE_KINDS and e.session == session and not is_first_seen(e):
             points.append(np.asarray(e.position, float)[:2])
             if e.kind == "moved" and e.previous is not None:
                 points.append(np.asarray(e.previous, float)[:2])

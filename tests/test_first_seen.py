@@ -214,3 +214,22 @@ def test_objects_pass_1_never_saw_are_first_seen_and_a_new_bin_where_it_looked_i
     # session 1, against the empty map, is scored as before: all it found is added
     first = evaluate_changes(world_path, site, 1, config)
     assert first.first_seen == 0 and first.kinds["added"].mapped == first.kinds["added"].tp + first.kinds["added"].fp
+
+
+def test_the_change_model_does_not_count_a_first_seen_object_as_a_change_of_its_region():
+    from bomc_bt.algorithm_params import BudgetParams
+    from bomc_bt.change_model import ChangeModel, RegionGrid, region_rows
+
+    grid = grid_10m()
+    regions = RegionGrid(grid, 4.0)
+    everything = np.ones(grid.data.shape, dtype=np.uint8)
+    model = ChangeModel(regions, BudgetParams(), region_rows(regions, everything, [], 1, 1.0,
+                                                             ChangeModel(regions, BudgetParams())))
+    new_to_map, really_new = added(1, 1.0), added(2, 9.0)
+    new_to_map.detail = {FIRST_SEEN: True}
+    rows = region_rows(regions, everything, [new_to_map, really_new], 2, 2.0, model)
+    changes = {(i, j): c for _s, _z, i, j, _seen, c, _t in rows}
+    (ri,), (rj,), _ = regions.index(np.array([[9.0, 5.0]]))
+    (fi,), (fj,), _ = regions.index(np.array([[1.0, 5.0]]))
+    assert changes[(int(ri), int(rj))] == 1 and changes[(int(fi), int(fj))] == 0
+    assert sum(changes.values()) == 1
