@@ -207,9 +207,8 @@ class SiteStore:
 
     def end_session(self, number: int, outcome: str, summary: dict[str, Any] | None = None,
                     regions: list[tuple] = (), progress: dict[str, Any] | None = None) -> None:
-        """Close session ``number``: reconcile history with the nodes, store counts and report,
-        the pass's ``regions`` rows (:func:`bomc_bt.change_model.region_rows`) and ``progress``
-        keys (the pass's final coverage mask, :mod:`bomc_bt.first_seen`), all in one transaction.
+        """Close session ``number`` in one transaction: reconcile history with the nodes, store counts,
+        report, ``regions`` rows (:mod:`bomc_bt.change_model`), ``progress`` keys (final masks).
 
         Reconciling appends an ``updated`` row for each present node whose position or
         confidence differs from its last history row (refreshes between sparse events), so
