@@ -156,6 +156,7 @@ def test_objects_pass_1_never_saw_are_first_seen_and_a_new_bin_where_it_looked_i
     from bomc_bt.evaluate_changes import changes_to_json, evaluate_changes
     from bomc_bt.grid import load_map
     from bomc_bt.officegen import OfficeParams, generate_office
+    from bomc_bt.site.formats import format_changes
     from bomc_bt.site.query import open_site
     from bomc_bt.viewer.site import SiteView
     from bomc_bt.world import load_world
@@ -202,6 +203,8 @@ def test_objects_pass_1_never_saw_are_first_seen_and_a_new_bin_where_it_looked_i
     with open_site(site) as reader:
         (pass_2,) = reader.changes(since=1)
     assert sorted(c.kind for c in pass_2.changes) == sorted(c["kind"] for c in report["nodes"])
+    assert format_changes([pass_2], "table").splitlines()[0] == \
+        f"session 2 (since session 1): {len(by_kind['added'])} change(s), {report['first_seen']} first seen"
     # the viewer's difference of sessions 1 and 2 lists them apart from the additions
     diff = SiteView(site).diff(1, 2)
     assert [n["id"] for n in diff["first_seen"]] == [c["node"] for c in by_kind["first_seen"]]

@@ -68,7 +68,9 @@ def format_changes(result: Sequence[SessionChanges], fmt: str) -> str:
         if s.pending:
             lines.append(f"session {s.session} (not run yet): {len(s.edits)} operator edit(s) waiting for it")
         else:
-            lines.append(f"session {s.session} (since {since}): {len(s.changes)} change(s)")
+            first = sum(c.kind == "first_seen" for c in s.changes)  # new to the map: listed, not changes
+            lines.append(f"session {s.session} (since {since}): {len(s.changes) - first} change(s)"
+                         + (f", {first} first seen" if first else ""))
         lines.extend("  " + _describe(c.to_json()) for c in s.changes)
         lines.extend(f"  operator {e.kind} node {e.node_id} ({e.category}){_edit_words(e.detail)}" for e in s.edits)
     return "\n".join(lines or ["no recorded session in that range"]) + "\n"
