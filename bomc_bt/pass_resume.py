@@ -38,6 +38,11 @@ def coverage_key(session: int) -> str:
     return f"coverage/{session}"
 
 
+def near_key(session: int) -> str:
+    """The snapshot of the coverage's ``near`` part (what the change model counts as looked at)."""
+    return f"coverage_near/{session}"
+
+
 def resume_point(perception, robot) -> dict[str, Any]:
     """The pass's state at this moment (see the module docstring)."""
     checkpoint = getattr(robot, "checkpoint", None)
@@ -58,7 +63,9 @@ def waypoint_progress(perception, robot) -> dict[str, Any]:
     """The progress keys a waypoint's commit writes besides the plan: a coverage snapshot
     and the resume point (whose list of view polygons starts again after the snapshot)."""
     perception.fov_since = []
-    return {coverage_key(perception.session): pack_mask(perception.coverage.seen),
+    coverage = perception.coverage
+    near = {near_key(perception.session): pack_mask(coverage.near)} if coverage.near is not coverage.seen else {}
+    return {coverage_key(perception.session): pack_mask(coverage.seen), **near,
             resume_key(perception.session): resume_point(perception, robot)}
 
 
@@ -77,6 +84,9 @@ def restore_pass(store, session: int, robot, perception) -> bool:
     snapshot = store.get_progress(coverage_key(session))
     if snapshot is not None:
         perception.coverage.seen[:] = unpack_mask(snapshot, perception.coverage.seen.shape)
+    near = store.get_progress(near_key(session))
+    if perception.coverage.near is not perception.coverage.seen and (near or snapshot) is not None:
+        perception.coverage.near[:] = unpack_mask(near or snapshot, perception.coverage.near.shape)  # older: all seen
     for polygon in point.get("fov_since", []):
         perception.coverage.add(np.asarray(polygon, dtype=float))
     perception.fov_since = list(point.get("fov_since", []))

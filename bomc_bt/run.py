@@ -317,7 +317,8 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         robot.use_map(grid)
         detector, segmenter = make_perception(config, seed, perception_base_dir(config))
         perception = Perception(detector, segmenter, categories, config.projection, graph, store, session, grid,
-                                occlusion_check=config.association.mode != "paper", robot=robot)
+                                occlusion_check=config.association.mode != "paper", robot=robot,
+                                near_range=config.budget.view_range)
         restored = resume and restore_pass(store, session, robot, perception)  # bomc_bt.pass_resume
         ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
                              seed=seed, store=store, graph=graph, perception=perception, dock=dock, resume=resume,
