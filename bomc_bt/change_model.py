@@ -10,7 +10,11 @@ corridor stretches both fall into a few). After every pass :func:`region_rows` r
 per region how much of its floor the camera looked at (saw within ``budget.view_range``:
 the coverage's ``near`` part; a room glimpsed from the corridor through its door is not
 looked at, and a change there cannot be confirmed) and how many changes the pass found
-there (``added``, ``removed`` and ``moved`` events, a move at both ends); a change counts
+there: its net changes (:func:`bomc_bt.net_changes.net_changes`: ``added``, ``removed``,
+``moved``, a move at both ends), not its raw events, for a node added and taken off again
+in one pass, or taken off and found again where it stood (a door seen from both sides, a
+miss count run out behind a chair), changed nothing, and counted as change such noise
+makes a corridor look like a meeting room to the budgeted planner; a change counts
 only in a region seen by an earlier pass (the first look adds everything, which is the
 map being built, not change). :class:`ChangeModel` reads those rows back: each region's
 rate is the Poisson estimate ``(changes + prior_rate * prior_weight) / (exposure +
@@ -32,10 +36,8 @@ import cv2
 import numpy as np
 
 from bomc_bt.algorithm_params import BudgetParams
-from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid
-
-CHANGE_KINDS = ("added", "removed", "moved")
+from bomc_bt.net_changes import NetChange
 
 
 @dataclass(frozen=True)
@@ -131,26 +133,23 @@ class ChangeModel:
              "waiting": round(float(waiting[i, j]), 3)} for i, j, c in zip(ii, jj, centres, strict=True)]}
 
 
-def region_rows(regions: RegionGrid, seen: np.ndarray, events: Iterable[Event], session: int,
+def region_rows(regions: RegionGrid, seen: np.ndarray, changes: Iterable[NetChange], session: int,
                 stamp: float | None, model: ChangeModel, objects: np.ndarray | None = None,
                 object_reach: float = 0.5) -> list[tuple]:
     """The rows one pass adds: per region with floor, the share of it looked at and the changes found.
 
-    ``seen`` is the map-sized mask of the floor the pass looked at, ``events`` its graph
-    events, and ``model`` the history before it (a change counts only where an earlier pass
-    looked). ``objects`` ((K, 2) map-frame places of the objects the map had when the pass
-    began) make the share of a region with objects the share of its objects looked at
-    (within ``object_reach`` m): changes happen at objects (a chair moved, a bin taken
+    ``seen`` is the map-sized mask of the floor the pass looked at, ``changes`` its net
+    changes, and ``model`` the history before it (a change counts only where an earlier
+    pass looked). ``objects`` ((K, 2) map-frame places of the objects the map had when the
+    pass began) make the share of a region with objects the share of its objects looked
+    at (within ``object_reach`` m): changes happen at objects (a chair moved, a bin taken
     away), so a look at a room's empty half could not have found them.
     """
     share = look_share(regions, seen, objects, object_reach)
     floor = regions.floor()
     points = []
-    for e in events:
-        if e.kind in CHANGE_KINDS and e.session == session:
-            points.append(np.asarray(e.position, float)[:2])
-            if e.kind == "moved" and e.previous is not None:
-                points.append(np.asarray(e.previous, float)[:2])
+    for c in changes:
+        points += [np.asarray(p, float)[:2] for p in (c.old, c.new) if p is not None]
     found = np.zeros(floor.shape, dtype=np.int64)
     if points:
         i, j, inside = regions.index(np.array(points))

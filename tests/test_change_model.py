@@ -12,8 +12,8 @@ from bomc_bt.algorithm_params import BudgetParams
 from bomc_bt.budget_plan import orienteer
 from bomc_bt.budget_stops import MarginalValue, StopCandidates, shortlist, target_weights
 from bomc_bt.change_model import ChangeModel, RegionGrid, region_rows, skipped_regions
-from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.net_changes import NetChange
 from bomc_bt.store import SiteStore
 from bomc_bt.store_schema import SCHEMA
 
@@ -58,12 +58,15 @@ def test_pass_rows_count_changes_only_where_an_earlier_pass_looked():
     grid = floor()
     regions = RegionGrid(grid, 4.0)
     model = ChangeModel(regions, BudgetParams(), rows_for(1, {(0, 1): 0.0}, {}))
-    events = [Event("added", 1, "chair", np.array([1.0, 1.0, 0.4]), 2, 5.0),  # region (0, 0): seen before
-              Event("added", 2, "chair", np.array([5.0, 1.0, 0.4]), 2, 5.0),  # region (0, 1): first look
-              Event("moved", 3, "bin", np.array([9.0, 5.0, 0.3]), 2, 6.0, np.array([1.5, 1.5, 0.3])),
-              Event("updated", 4, "chair", np.array([1.0, 1.0, 0.4]), 2, 6.0)]
+    def change(kind, node, old, new):
+        return NetChange(kind, node, "chair", None if old is None else np.array([*old, 0.4]),
+                         None if new is None else np.array([*new, 0.4]), 0.0, None, None, 2, 5.0, 1)
+
+    changes = [change("added", 1, None, (1.0, 1.0)),  # region (0, 0): seen before
+               change("added", 2, None, (5.0, 1.0)),  # region (0, 1): first look
+               change("moved", 3, (1.5, 1.5), (9.0, 5.0))]
     seen = np.ones(grid.data.shape, dtype=bool)
-    rows = {(r[2], r[3]): r for r in region_rows(regions, seen, events, 2, 7.0, model)}
+    rows = {(r[2], r[3]): r for r in region_rows(regions, seen, changes, 2, 7.0, model)}
     assert rows[(0, 0)][5] == 2  # the add and the move's old place
     assert rows[(0, 1)][5] == 0
     assert rows[(1, 2)][5] == 1  # the move's new place
@@ -208,3 +211,21 @@ def test_a_look_at_a_rooms_empty_half_does_not_count_where_its_objects_stand():
     rows = {(r[2], r[3]): r[4] for r in region_rows(regions, seen, [], 2, None, model, objects)}
     assert rows[(0, 0)] == 1.0 and rows[(1, 1)] == 0.0
     assert {(r[2], r[3]): r[4] for r in region_rows(regions, seen, [], 2, None, model)}[(0, 0)] == 1.0
+
+
+def test_a_door_added_and_taken_off_in_one_pass_or_a_chair_found_again_is_no_change_in_the_model():
+    from bomc_bt.graph import Event
+    from bomc_bt.net_changes import net_changes
+    grid = floor()
+    regions = RegionGrid(grid, 4.0)
+    model = ChangeModel(regions, BudgetParams(), rows_for(1, {}, {}))
+    history = [Event("added", 1, "chair", np.array([1.0, 1.0, 0.4]), 1, 1.0),
+               Event("added", 2, "door", np.array([9.0, 5.0, 1.0]), 2, 5.0),  # a door seen from its other side
+               Event("removed", 2, "door", np.array([9.0, 5.0, 1.0]), 2, 9.0),
+               Event("removed", 1, "chair", np.array([1.0, 1.0, 0.4]), 2, 6.0),  # misses ran out behind a table
+               Event("moved", 1, "chair", np.array([1.05, 1.0, 0.4]), 2, 7.0, np.array([1.0, 1.0, 0.4])),
+               Event("added", 3, "bin", np.array([5.0, 1.0, 0.3]), 2, 8.0)]  # the one change
+    changes = net_changes(history, 1, lambda _category: 0.5)
+    seen = np.ones(grid.data.shape, dtype=bool)
+    found = {(r[2], r[3]): r[5] for r in region_rows(regions, seen, changes, 2, 9.0, model)}
+    assert found == {(0, 0): 0, (0, 1): 1, (0, 2): 0, (1, 0): 0, (1, 1): 0, (1, 2): 0}
