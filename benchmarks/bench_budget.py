@@ -20,7 +20,9 @@ checks by running.
 Per arm it prints: the share of the true changes (objects removed, moved, added between
 two sessions, by name in the world file) that the pass right after them found (an
 added / removed / moved event of the same category within ``--radius`` of where the
-change happened), the mean passes until a change was noticed (0: by the next pass; one
+change happened), the true changes a pass noticed first whatever their age (a change
+waiting since an earlier pass counts: what the budgeted plan maximises), the mean passes
+until a change was noticed (0: by the next pass; one
 never noticed counts as the passes left, and is listed apart), object F1 (``bomc
 evaluate``) averaged over the passes, and the robot time used against the budget; the
 ratio columns compare with the cut paper plan at the same budget, measured in this run.
