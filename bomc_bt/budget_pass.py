@@ -63,13 +63,15 @@ def load_model(store, grid: OccupancyGrid, config: Config, before: int | None = 
     return ChangeModel(RegionGrid(grid, config.budget.region_size), config.budget, rows)
 
 
-def pass_regions(store, grid: OccupancyGrid, config: Config, seen: np.ndarray | None, events, session: int,
+def pass_regions(store, grid: OccupancyGrid, config: Config, seen: np.ndarray | None, changes, session: int,
                  stamp: float | None, budget: PassBudget | None) -> tuple[list[tuple], dict]:
     """What a pass adds to the change model (the store's rows) and what its report says of
-    it: the budget it ran with and the regions it skipped, with how stale each now is."""
+    it: the budget it ran with and the regions it skipped, with how stale each now is.
+    ``seen``: the floor the pass looked at; ``changes``: its net changes."""
     model = load_model(store, grid, config, before=session)
     seen = np.zeros(grid.data.shape, dtype=bool) if seen is None else seen
-    rows = region_rows(model.regions, seen, events, session, stamp, model)
+    objects = np.array([n.position[:2] for n in store.graph_after(session - 1)], dtype=float).reshape(-1, 2)
+    rows = region_rows(model.regions, seen, changes, session, stamp, model, objects)
     info = {k: v for k, v in (budget.to_json() if budget else {}).items() if k != "home_m"}
     skipped = skipped_regions(model, rows, session)
     return rows, {**info, "regions": len(rows), "skipped_regions": skipped}

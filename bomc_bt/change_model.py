@@ -7,13 +7,23 @@ changes waiting in a region are its rate times the passes since it was last seen
 
 Regions are squares of ``budget.region_size`` on the map (a room-sized tile: rooms and
 corridor stretches both fall into a few). After every pass :func:`region_rows` records
-per region how much of its floor the camera saw and how many changes the pass found
-there (``added``, ``removed`` and ``moved`` events, a move at both ends); a change counts
+per region how much of its floor the camera looked at (saw within ``budget.view_range``:
+the coverage's ``near`` part; a room glimpsed from the corridor through its door is not
+looked at, and a change there cannot be confirmed) and how many changes the pass found
+there: its net changes (:func:`bomc_bt.net_changes.net_changes`: ``added``, ``removed``,
+``moved``, a move at both ends), not its raw events, for a node added and taken off again
+in one pass, or taken off and found again where it stood (a door seen from both sides, a
+miss count run out behind a chair), changed nothing, and counted as change such noise
+makes a corridor look like a meeting room to the budgeted planner; a change counts
 only in a region seen by an earlier pass (the first look adds everything, which is the
 map being built, not change). :class:`ChangeModel` reads those rows back: each region's
 rate is the Poisson estimate ``(changes + prior_rate * prior_weight) / (exposure +
-prior_weight)``, the exposure being the passes between the looks that counted, so a
-region with no history has the uniform prior rate and history moves it from there.
+prior_weight)``. Only looks at ``budget.seen_share`` of a region or more count, and each
+adds as exposure the passes since the last such look times the share it looked at (a
+look at half a room is expected to find half its changes): a glimpse that could not have
+found a change must not teach the model that none happen there, else a hot room that
+budgeted passes only glimpse cools in the model and drops out of their tours. A region
+with no history has the uniform prior rate and history moves it from there.
 The rows live in the site store's ``region_passes`` table (schema version 4).
 """
 
@@ -22,14 +32,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from bomc_bt.algorithm_params import BudgetParams
-from bomc_bt.first_seen import is_first_seen
-from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid
-
-CHANGE_KINDS = ("added", "removed", "moved")
+from bomc_bt.net_changes import NET_KINDS, NetChange
 
 
 @dataclass(frozen=True)
@@ -91,8 +99,8 @@ class ChangeModel:
                 continue  # another region size, or another map's region: not this model's
             if seen < params.seen_share:
                 continue
-            if self.last_seen[i, j]:
-                self.exposure[i, j] += session - self.last_seen[i, j]
+            if self.last_seen[i, j]:  # a look finds the share ``seen`` of the changes since the last
+                self.exposure[i, j] += (session - self.last_seen[i, j]) * min(1.0, seen)
                 self.changes[i, j] += changes
             self.last_seen[i, j] = session
             self.seen_passes[i, j] += 1
@@ -125,22 +133,24 @@ class ChangeModel:
              "waiting": round(float(waiting[i, j]), 3)} for i, j, c in zip(ii, jj, centres, strict=True)]}
 
 
-def region_rows(regions: RegionGrid, seen: np.ndarray, events: Iterable[Event], session: int,
-                stamp: float | None, model: ChangeModel) -> list[tuple]:
-    """The rows one pass adds: per region with floor, the share of it seen and the changes found.
+def region_rows(regions: RegionGrid, seen: np.ndarray, changes: Iterable[NetChange], session: int,
+                stamp: float | None, model: ChangeModel, objects: np.ndarray | None = None,
+                object_reach: float = 0.5) -> list[tuple]:
+    """The rows one pass adds: per region with floor, the share of it looked at and the changes found.
 
-    ``seen`` is the camera's map-sized mask of the pass, ``events`` its graph events, and
-    ``model`` the history before it (a change counts only where an earlier pass looked).
+    ``seen`` is the map-sized mask of the floor the pass looked at, ``changes`` its net
+    changes, and ``model`` the history before it (a change counts only where an earlier
+    pass looked). ``objects`` ((K, 2) map-frame places of the objects the map had when the
+    pass began) make the share of a region with objects the share of its objects looked
+    at (within ``object_reach`` m): changes happen at objects (a chair moved, a bin taken
+    away), so a look at a room's empty half could not have found them.
     """
+    share = look_share(regions, seen, objects, object_reach)
     floor = regions.floor()
-    seen_cells = regions.per_region(seen.astype(bool) & regions.grid.free_mask())
-    share = np.where(floor > 0, seen_cells / np.maximum(floor, 1), 0.0)
     points = []
-    for e in events:  # an object first seen (no pass had looked there) is no change either
-        if e.kind in CHANGE_KINDS and e.session == session and not is_first_seen(e):
-            points.append(np.asarray(e.position, float)[:2])
-            if e.kind == "moved" and e.previous is not None:
-                points.append(np.asarray(e.previous, float)[:2])
+    for c in changes:  # a node first seen (no earlier pass had looked there) is no change
+        if c.kind in NET_KINDS:
+            points += [np.asarray(p, float)[:2] for p in (c.old, c.new) if p is not None]
     found = np.zeros(floor.shape, dtype=np.int64)
     if points:
         i, j, inside = regions.index(np.array(points))
@@ -150,6 +160,27 @@ def region_rows(regions: RegionGrid, seen: np.ndarray, events: Iterable[Event], 
     ii, jj = np.nonzero(floor > 0)
     return [(session, regions.size, int(i), int(j), round(float(share[i, j]), 4), int(found[i, j]),
              None if stamp is None else float(stamp)) for i, j in zip(ii, jj, strict=True)]
+
+
+def look_share(regions: RegionGrid, seen: np.ndarray, objects: np.ndarray | None = None,
+               object_reach: float = 0.5) -> np.ndarray:
+    """(I, J) share of each region a pass looked at: of its objects where it has any
+    (an object counts when ``seen`` reaches within ``object_reach`` m of it), else of its floor."""
+    floor = regions.floor()
+    seen = seen.astype(bool)
+    share = np.where(floor > 0, regions.per_region(seen & regions.grid.free_mask()) / np.maximum(floor, 1), 0.0)
+    if objects is None or not len(objects):
+        return share
+    k = max(1, int(round(object_reach / regions.grid.resolution)))
+    reach = cv2.dilate(seen.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * k + 1, 2 * k + 1)))
+    i, j, inside = regions.index(np.asarray(objects, float)[:, :2])
+    rows, cols = regions.grid.world_to_cell(np.asarray(objects, float)[:, 0], np.asarray(objects, float)[:, 1])
+    ok = inside & (i < share.shape[0]) & (j < share.shape[1])
+    looked = np.zeros(share.shape)
+    count = np.zeros(share.shape)
+    np.add.at(count, (i[ok], j[ok]), 1.0)
+    np.add.at(looked, (i[ok], j[ok]), reach[rows[ok], cols[ok]].astype(float))
+    return np.where((count > 0) & (floor > 0), looked / np.maximum(count, 1.0), share)
 
 
 def skipped_regions(model: ChangeModel, rows: list[tuple], session: int) -> list[dict]:

@@ -205,19 +205,34 @@ def _stale(node, now: float | None, stale_after: float) -> bool:
 
 
 class Coverage:
-    """The map area the camera actually observed during a pass (issue: coverage accounting)."""
+    """The map area the camera actually observed during a pass (issue: coverage accounting).
 
-    def __init__(self, grid: OccupancyGrid):
+    ``seen`` is all the camera's view reached; ``near`` only what it saw within
+    ``near_range`` m (0: the same as ``seen``), near enough to detect an object and confirm a
+    change there: a room glimpsed through a doorway from the corridor is seen, not looked
+    at, and the change model (:mod:`bomc_bt.change_model`) counts only looks."""
+
+    def __init__(self, grid: OccupancyGrid, near_range: float = 0.0):
         self.grid = grid
         self.free = grid.free_mask()
         self.seen = np.zeros(grid.data.shape, dtype=np.uint8)
+        self.near_range = near_range
+        self.near = np.zeros(grid.data.shape, dtype=np.uint8) if near_range > 0 else self.seen
 
     def add(self, polygon: np.ndarray) -> None:
         if polygon is None or len(polygon) < 3:
             return
+        polygon = np.asarray(polygon, dtype=float)
+        self._fill(self.seen, polygon)
+        if self.near is not self.seen:  # the fan from the camera (vertex 0), each ray cut at near_range
+            ray = polygon[1:] - polygon[0]
+            scale = np.minimum(1.0, self.near_range / np.maximum(np.hypot(ray[:, 0], ray[:, 1]), 1e-9))
+            self._fill(self.near, np.vstack([polygon[:1], polygon[0] + ray * scale[:, None]]))
+
+    def _fill(self, mask: np.ndarray, polygon: np.ndarray) -> None:
         rows, cols = self.grid.world_to_cell(polygon[:, 0], polygon[:, 1])
         pts = np.stack([cols, rows], axis=1).astype(np.int32)
-        cv2.fillPoly(self.seen, [pts], 1)
+        cv2.fillPoly(mask, [pts], 1)
 
     @property
     def observed_area(self) -> float:
@@ -294,6 +309,7 @@ seen before it is written. With a store, every frame
     occlusion_check: bool = True
     robot: Any = None  # the robot whose state a frame's commit saves (None: none saved)
     seen_before: Any = None  # first_seen.SeenBefore: what earlier passes saw (None: unknown, nothing marked)
+    near_range: float = 0.0  # [m] the coverage's ``near`` reach (budget.view_range; 0: all it sees)
     coverage: Coverage = field(init=False)
     # the floor seen within projection.expect_range (where a missed object is evidence of its
     # absence): what later passes tell first-seen objects from added ones by (bomc_bt.first_seen)
@@ -305,7 +321,7 @@ seen before it is written. With a store, every frame
     last_frame: FrameSeen | None = None  # the latest frame's detections, for the timeline
 
     def __post_init__(self, grid: OccupancyGrid) -> None:
-        self.coverage = Coverage(grid)
+        self.coverage = Coverage(grid, self.near_range)
         self.looked = Coverage(grid)
 
     def process(self, frame: RGBDFrame) -> FrameResult:

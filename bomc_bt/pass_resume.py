@@ -44,6 +44,11 @@ def looked_key(session: int) -> str:
     return f"looked/{session}"
 
 
+def near_key(session: int) -> str:
+    """The snapshot of the coverage's ``near`` part (what the change model counts as looked at)."""
+    return f"coverage_near/{session}"
+
+
 def resume_point(perception, robot) -> dict[str, Any]:
     """The pass's state at this moment (see the module docstring)."""
     checkpoint = getattr(robot, "checkpoint", None)
@@ -69,10 +74,13 @@ def waypoint_progress(perception, robot) -> dict[str, Any]:
 
 
 def coverage_masks(perception) -> dict[str, str]:
-    """The progress keys of the pass's coverage masks, packed: the whole view fans and their
-    parts within reach (a waypoint's snapshot, and the final masks the session's end writes)."""
-    return {coverage_key(perception.session): pack_mask(perception.coverage.seen),
-            looked_key(perception.session): pack_mask(perception.looked.seen)}
+    """The progress keys of the pass's coverage masks, packed: the whole view fans, their
+    parts within reach, and the coverage's ``near`` part where it has one (a waypoint's
+    snapshot, and the final masks the session's end writes)."""
+    session, coverage = perception.session, perception.coverage
+    near = {near_key(session): pack_mask(coverage.near)} if coverage.near is not coverage.seen else {}
+    return {coverage_key(session): pack_mask(coverage.seen), looked_key(session): pack_mask(perception.looked.seen),
+            **near}
 
 
 def restore_pass(store, session: int, robot, perception) -> bool:
@@ -87,13 +95,20 @@ def restore_pass(store, session: int, robot, perception) -> bool:
     removed = {n.id: n for n in store.nodes(include_removed=True) if n.state != "present"}
     perception.graph.restore_pass_state(point.get("graph") or {}, removed)
     perception.frames = int(point.get("frames", 0))
-    for coverage, key, since in ((perception.coverage, coverage_key(session), "fov_since"),
-                                 (perception.looked, looked_key(session), "looked_since")):
-        snapshot = store.get_progress(key)
-        if snapshot is not None:
-            coverage.seen[:] = unpack_mask(snapshot, coverage.seen.shape)
-        for polygon in point.get(since, []):
-            coverage.add(np.asarray(polygon, dtype=float))
+    coverage = perception.coverage
+    snapshot = store.get_progress(coverage_key(session))
+    if snapshot is not None:
+        coverage.seen[:] = unpack_mask(snapshot, coverage.seen.shape)
+    near = store.get_progress(near_key(session))
+    if coverage.near is not coverage.seen and (near or snapshot) is not None:
+        coverage.near[:] = unpack_mask(near or snapshot, coverage.near.shape)  # older: all seen
+    looked = store.get_progress(looked_key(session))
+    if looked is not None:
+        perception.looked.seen[:] = unpack_mask(looked, perception.looked.seen.shape)
+    for polygon in point.get("fov_since", []):
+        coverage.add(np.asarray(polygon, dtype=float))
+    for polygon in point.get("looked_since", []):
+        perception.looked.add(np.asarray(polygon, dtype=float))
     perception.fov_since = list(point.get("fov_since", []))
     perception.looked_since = list(point.get("looked_since", []))
     perception.events = list(store.events(session=session))

@@ -190,7 +190,7 @@ def _replay_into_site(bag, index, reader, site_dir: Path, session: int, config: 
         check_session(store, session, False, site.store_path)
         graph = store.load_graph(config.association)
         perception = Perception(timed, timed, categories, config.projection, graph, store, session, grid,
-                                occlusion_check=config.association.mode != "paper",
+                                occlusion_check=config.association.mode != "paper", near_range=config.budget.view_range,
                                 seen_before=load_seen_before(store, session, grid,
                                                              config.association.first_seen_margin))
         recorded = RecordedPass(grid, index.frames[0].stamp, _path_length(index))

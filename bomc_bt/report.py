@@ -74,9 +74,9 @@ def write_session_report(ctx, close: bool = True, extra: dict[str, Any] | None =
     """
     if close:  # the history exact at the pass's end before the net changes are read from it
         ctx.store.reconcile(ctx.session, ctx.now())
-    seen = ctx.perception.coverage.seen if ctx.perception else None
-    events = ctx.perception.events if ctx.perception else []
-    regions, budget = pass_regions(ctx.store, ctx.robot.live_map(), ctx.config, seen, events, ctx.session, ctx.now(),
+    seen = ctx.perception.coverage.near if ctx.perception else None  # looked at, not glimpsed
+    changes = pass_changes(ctx)[1]  # net: a node added and taken off again in the pass changed nothing
+    regions, budget = pass_regions(ctx.store, ctx.robot.live_map(), ctx.config, seen, changes, ctx.session, ctx.now(),
                                    getattr(ctx, "budget", None))
     summary = {**session_summary(ctx), "budget": budget, **(extra or {})}
     if close:  # with what the camera saw: the next passes tell first-seen objects from added ones

@@ -319,6 +319,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         detector, segmenter = make_perception(config, seed, perception_base_dir(config))
         perception = Perception(detector, segmenter, categories, config.projection, graph, store, session, grid,
                                 occlusion_check=config.association.mode != "paper", robot=robot,
+                                near_range=config.budget.view_range,
                                 seen_before=load_seen_before(store, session, grid,
                                                              config.association.first_seen_margin))
         restored = resume and restore_pass(store, session, robot, perception)  # bomc_bt.pass_resume

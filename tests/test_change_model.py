@@ -12,8 +12,8 @@ from bomc_bt.algorithm_params import BudgetParams
 from bomc_bt.budget_plan import orienteer
 from bomc_bt.budget_stops import MarginalValue, StopCandidates, shortlist, target_weights
 from bomc_bt.change_model import ChangeModel, RegionGrid, region_rows, skipped_regions
-from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.net_changes import NetChange
 from bomc_bt.store import SiteStore
 from bomc_bt.store_schema import SCHEMA
 
@@ -58,12 +58,15 @@ def test_pass_rows_count_changes_only_where_an_earlier_pass_looked():
     grid = floor()
     regions = RegionGrid(grid, 4.0)
     model = ChangeModel(regions, BudgetParams(), rows_for(1, {(0, 1): 0.0}, {}))
-    events = [Event("added", 1, "chair", np.array([1.0, 1.0, 0.4]), 2, 5.0),  # region (0, 0): seen before
-              Event("added", 2, "chair", np.array([5.0, 1.0, 0.4]), 2, 5.0),  # region (0, 1): first look
-              Event("moved", 3, "bin", np.array([9.0, 5.0, 0.3]), 2, 6.0, np.array([1.5, 1.5, 0.3])),
-              Event("updated", 4, "chair", np.array([1.0, 1.0, 0.4]), 2, 6.0)]
+    def change(kind, node, old, new):
+        return NetChange(kind, node, "chair", None if old is None else np.array([*old, 0.4]),
+                         None if new is None else np.array([*new, 0.4]), 0.0, None, None, 2, 5.0, 1)
+
+    changes = [change("added", 1, None, (1.0, 1.0)),  # region (0, 0): seen before
+               change("added", 2, None, (5.0, 1.0)),  # region (0, 1): first look
+               change("moved", 3, (1.5, 1.5), (9.0, 5.0))]
     seen = np.ones(grid.data.shape, dtype=bool)
-    rows = {(r[2], r[3]): r for r in region_rows(regions, seen, events, 2, 7.0, model)}
+    rows = {(r[2], r[3]): r for r in region_rows(regions, seen, changes, 2, 7.0, model)}
     assert rows[(0, 0)][5] == 2  # the add and the move's old place
     assert rows[(0, 1)][5] == 0
     assert rows[(1, 2)][5] == 1  # the move's new place
@@ -168,3 +171,61 @@ def test_a_version_3_store_is_upgraded_with_an_empty_region_history_and_read_as_
         writer.end_session(1, "completed", {"stamp": 9.0}, [(1, 4.0, 0, 0, 0.5, 0, 9.0)])
     with SiteStore(path, readonly=True) as reader:
         assert reader.region_rows() == [(1, 4.0, 0, 0, 0.5, 0, 9.0)]
+
+
+def test_a_hot_region_only_glimpsed_keeps_its_rate_and_a_half_look_counts_half():
+    params = BudgetParams(prior_rate=0.3, prior_weight=1.0, seen_share=0.3)
+    history = rows_for(1, {}, {})
+    for s in range(2, 5):  # full passes: two changes a pass in region (0, 0)
+        history += rows_for(s, {}, {(0, 0): 2})
+    hot = ChangeModel(RegionGrid(floor(), 4.0), params, history).rate[0, 0]
+    glimpses = history + [r for s in range(5, 9) for r in rows_for(s, {(0, 0): 0.1}, {})]
+    assert ChangeModel(RegionGrid(floor(), 4.0), params, glimpses).rate[0, 0] == pytest.approx(hot)
+    half = ChangeModel(RegionGrid(floor(), 4.0), params, history + rows_for(5, {(0, 0): 0.5}, {})).rate[0, 0]
+    assert half == pytest.approx((6 + 0.3) / (3 + 0.5 + 1))  # a full look finding nothing: (6.3) / 5
+
+
+def test_coverage_counts_as_looked_at_only_the_floor_within_near_range():
+    from bomc_bt.monitoring import Coverage
+    grid = floor()
+    coverage = Coverage(grid, near_range=3.0)
+    coverage.add(np.array([[1.0, 4.0], [9.0, 1.0], [9.0, 7.0]]))  # a fan from (1, 4) reaching 8 m
+    seen_x = np.nonzero(coverage.seen[40])[0] * 0.1
+    near_x = np.nonzero(coverage.near[40])[0] * 0.1
+    assert seen_x.max() > 8.5 and 3.5 < near_x.max() < 4.2 and near_x.min() == pytest.approx(seen_x.min())
+    everything = Coverage(grid)
+    everything.add(np.array([[1.0, 4.0], [9.0, 1.0], [9.0, 7.0]]))
+    assert np.array_equal(everything.near, everything.seen)
+
+
+def test_a_look_at_a_rooms_empty_half_does_not_count_where_its_objects_stand():
+    grid = floor()
+    regions = RegionGrid(grid, 4.0)
+    model = ChangeModel(regions, BudgetParams(), rows_for(1, {}, {}))
+    seen = np.zeros(grid.data.shape, dtype=bool)
+    seen[:40, :20] = True  # the left half of region (0, 0), none of region (0, 1)
+    objects = np.array([[3.5, 1.0], [3.5, 3.0], [6.0, 6.0]])  # two in the unseen half of (0, 0), one in (1, 1)
+    rows = {(r[2], r[3]): r[4] for r in region_rows(regions, seen, [], 2, None, model, objects)}
+    assert rows[(0, 0)] == 0.0  # half its floor seen, none of its objects: not a look
+    seen[:40, :40] = True
+    rows = {(r[2], r[3]): r[4] for r in region_rows(regions, seen, [], 2, None, model, objects)}
+    assert rows[(0, 0)] == 1.0 and rows[(1, 1)] == 0.0
+    assert {(r[2], r[3]): r[4] for r in region_rows(regions, seen, [], 2, None, model)}[(0, 0)] == 1.0
+
+
+def test_a_door_added_and_taken_off_in_one_pass_or_a_chair_found_again_is_no_change_in_the_model():
+    from bomc_bt.graph import Event
+    from bomc_bt.net_changes import net_changes
+    grid = floor()
+    regions = RegionGrid(grid, 4.0)
+    model = ChangeModel(regions, BudgetParams(), rows_for(1, {}, {}))
+    history = [Event("added", 1, "chair", np.array([1.0, 1.0, 0.4]), 1, 1.0),
+               Event("added", 2, "door", np.array([9.0, 5.0, 1.0]), 2, 5.0),  # a door seen from its other side
+               Event("removed", 2, "door", np.array([9.0, 5.0, 1.0]), 2, 9.0),
+               Event("removed", 1, "chair", np.array([1.0, 1.0, 0.4]), 2, 6.0),  # misses ran out behind a table
+               Event("moved", 1, "chair", np.array([1.05, 1.0, 0.4]), 2, 7.0, np.array([1.0, 1.0, 0.4])),
+               Event("added", 3, "bin", np.array([5.0, 1.0, 0.3]), 2, 8.0)]  # the one change
+    changes = net_changes(history, 1, lambda _category: 0.5)
+    seen = np.ones(grid.data.shape, dtype=bool)
+    found = {(r[2], r[3]): r[5] for r in region_rows(regions, seen, changes, 2, 9.0, model)}
+    assert found == {(0, 0): 0, (0, 1): 1, (0, 2): 0, (1, 0): 0, (1, 1): 0, (1, 2): 0}

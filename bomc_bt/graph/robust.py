@@ -103,6 +103,8 @@ class RobustPolicy:
             matched_obs.add(j)
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
         for vid in exp:
+            if vid not in graph.nodes:  # an arrival an earlier miss in this loop folded into its moved node
+                continue
             if vid in matched_nodes:
                 graph.evidence.seen(vid, stamp, self.params.confirm_interval)
             elif weights.get(vid, 1.0) > 0.0:
