@@ -230,7 +230,9 @@ def test_the_change_model_does_not_count_a_first_seen_object_as_a_change_of_its_
                                                              ChangeModel(regions, BudgetParams())))
     new_to_map, really_new = added(1, 1.0), added(2, 9.0)
     new_to_map.detail = {FIRST_SEEN: True}
-    rows = region_rows(regions, everything, [new_to_map, really_new], 2, 2.0, model)
+    changes = net_changes([added(3, 5.0, session=1), new_to_map, really_new], 1, lambda _c: 0.7)
+    assert [c.kind for c in changes] == ["added", "first_seen"]
+    rows = region_rows(regions, everything, changes, 2, 2.0, model)
     changes = {(i, j): c for _s, _z, i, j, _seen, c, _t in rows}
     (ri,), (rj,), _ = regions.index(np.array([[9.0, 5.0]]))
     (fi,), (fj,), _ = regions.index(np.array([[1.0, 5.0]]))
