@@ -30,10 +30,17 @@ class PlannerParams:
     goal_tolerance: float = 0.3  # [m] a lethal goal may move this far to a traversable cell
     escape_radius: float = 1.0  # [m] how far to look for a traversable cell from a lethal start
     heuristic_weight: float = 1.0  # [-] above 1: weighted A* (fewer expansions, less clearance-optimal)
+    # [m] while building, the clearance a last-resort plan keeps when none exists with robot_radius:
+    # a robot that got through a gap narrower than 2 x robot_radius (half unknown when it was
+    # planned) squeezes back out through known space instead of waiting there for ever. Above
+    # the base's body radius (0.24 m in the simulator); at or above robot_radius: never squeeze.
+    squeeze_radius: float = 0.27
 
     def __post_init__(self) -> None:
         if self.robot_radius < 0 or self.inflation_radius < self.robot_radius:
             raise ValueError("need 0 <= robot_radius <= inflation_radius")
+        if not 0 < self.squeeze_radius < 10:
+            raise ValueError(f"squeeze_radius: must be in (0, 10) m, got {self.squeeze_radius}")
         if self.heuristic_weight < 1.0:
             raise ValueError("heuristic_weight must be >= 1")
         if self.resolution <= 0 or self.goal_tolerance < 0 or self.cost_weight < 0:

@@ -45,6 +45,17 @@ class SimPlanners:
         key = ("obstacles", self.obstacles.version)
         return self._cached("live", key, lambda: GridPlanner(self.map, self.params, self.obstacles.mask))
 
+    def squeeze(self) -> GridPlanner | None:
+        """While building, the planner with ``squeeze_radius`` on known space only: the last
+        resort when the live planner has no path (a robot inside a pocket whose way out is
+        narrower than ``robot_radius`` allows). None once a saved map is in use."""
+        if self.map is not None or self.params.squeeze_radius >= self.params.robot_radius:
+            return None
+        assert self.mapper is not None
+        params = replace(self.params, robot_radius=self.params.squeeze_radius, allow_unknown=False)
+        return self._cached("squeeze", ("mapper", self.mapper.updates),
+                            lambda: GridPlanner(self.mapper.grid(), params))
+
     def path_clear(self, path: np.ndarray, skip: float) -> bool:
         """Cheap check of the plan against what is known to be occupied now (no rebuild)."""
         if self.map is None:
