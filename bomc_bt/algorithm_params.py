@@ -31,10 +31,12 @@ class PlannerParams:
     escape_radius: float = 1.0  # [m] how far to look for a traversable cell from a lethal start
     heuristic_weight: float = 1.0  # [-] above 1: weighted A* (fewer expansions, less clearance-optimal)
     # [m] while building, the clearance a last-resort plan keeps when none exists with robot_radius:
-    # a robot that got through a gap narrower than 2 x robot_radius (half unknown when it was
-    # planned) squeezes back out through known space instead of waiting there for ever. Above
-    # the base's body radius (0.24 m in the simulator); at or above robot_radius: never squeeze.
-    squeeze_radius: float = 0.27
+    # through a doorway that the lidar maps a cell narrower on each side than it is, or out of a
+    # strip the robot entered while its walls were unknown. Above the base's body radius (0.24 m
+    # in the simulator): mapped walls are thicker than true ones and the 0.1 m planning grid
+    # under-reads clearance, so 0.25 m planned is about 0.28 m true. At or above robot_radius:
+    # never squeeze.
+    squeeze_radius: float = 0.25
 
     def __post_init__(self) -> None:
         if self.robot_radius < 0 or self.inflation_radius < self.robot_radius:

@@ -141,7 +141,7 @@ class Explorer:
         window = choice.window
         if best is None and self.unreachable and reach is not None:
             choice, best = self._from_pocket(grid, robot_xy, reach, choice)
-            window = "pocket exit"
+            window = "squeeze"
         if best is None:
             unreachable = f"; {len(self.unreachable)} more the planner cannot reach" if self.unreachable else ""
             return self._finish(DONE, (choice.reason or "no frontiers left") + unreachable)
@@ -160,28 +160,30 @@ class Explorer:
 
     def _from_pocket(self, grid: OccupancyGrid, robot_xy: tuple[float, float], reach: Reachability,
                      choice: Choice) -> tuple[Choice, Candidate | None]:
-        """A goal beyond the pocket the robot is in, or (``choice``, None) when it is in none.
+        """A goal the robot reaches only by squeezing, or (``choice``, None) when there is none.
 
-        Planning through unknown space can take the robot through a gap that, once seen, is
-        narrower than twice the planner's radius (the strip between a building and the
-        map's edge): its planning component is then a pocket, every frontier outside it is
-        "unreachable" and the build would end "done" with most of the floor unmapped
-        (hospital, issue 16). The robot is in a pocket when the component of the squeeze
-        radius (:attr:`PlannerParams.squeeze_radius`, still wider than its body) is more than
-        twice the size of its own; then frontiers are chosen in that one, and the navigator
-        squeezes out to them (:mod:`bomc_bt.sim.navigation`).
+        The planner's radius (0.3 m) is wider than the body (0.24 m), and the lidar maps a
+        wall about a cell thicker than it is: a 0.7 m doorway reads as no way through.
+        Planning through unknown space also takes the robot through gaps that, once seen,
+        are that narrow (the strip between a building and the map's edge). Every frontier
+        beyond is then "unreachable" and the build ended "done" with most of the floor
+        unmapped (hospital, issue 16). So when the planner's component has no goal left,
+        frontiers are chosen in the component of the squeeze radius
+        (:attr:`PlannerParams.squeeze_radius`, still wider than the body), and the navigator
+        squeezes through to them (:mod:`bomc_bt.sim.navigation`).
         """
         planner = reach.params
         if planner.squeeze_radius >= planner.robot_radius:
             return choice, None
         wide = Reachability(grid, replace(planner, robot_radius=planner.squeeze_radius), robot_xy)
-        if np.count_nonzero(wide.component) <= 2 * np.count_nonzero(reach.component):
+        if np.count_nonzero(wide.component) <= np.count_nonzero(reach.component):
             return choice, None
         kept = self.frontiers, self.unreachable
-        pocket_choice, best = self._choose(grid, robot_xy, wide, self._candidates(grid, robot_xy, wide))
+        squeezed, best = self._choose(grid, robot_xy, wide, self._candidates(grid, robot_xy, wide))
         if best is None:
             self.frontiers, self.unreachable = kept
-        return (choice, None) if best is None else (pocket_choice, best)
+            return choice, None
+        return squeezed, best
 
     def _candidates(self, grid: OccupancyGrid, robot_xy: tuple[float, float],
                     reach: Reachability | None) -> list[Candidate]:
