@@ -30,11 +30,6 @@ from bomc_bt.polyline import dedupe_waypoints, path_clear_of, path_length
 __all__ = ["GridPlanner", "PlannerParams", "path_clear_of", "path_length"]
 
 _SQRT2 = math.sqrt(2.0)
-# [m] a start may hop this far to a traversable cell of the goal's component. Two cells that
-# both keep robot_radius (>= 0.1 m) from every obstacle and lie this close have no obstacle
-# between them, so the hop crosses no wall; it frees a robot whose own cell is an island
-# of the costmap (a few cells cut off by the lethal zones of a narrow strip).
-ISLAND_HOP = 0.2
 
 
 class GridPlanner:
@@ -162,9 +157,7 @@ class GridPlanner:
         if s is None or g is None:
             return None
         if not self.connected(s, g):
-            s = self._hop_to(start_xy, g)
-            if s is None:
-                return None
+            return None
         cells = self._astar(s, g)
         if cells is None:
             return None
@@ -175,34 +168,16 @@ class GridPlanner:
         pts = head + middle + tail
         return dedupe_waypoints(np.array(pts, dtype=float))
 
-    def _hop_to(self, xy, goal: tuple[int, int]) -> tuple[int, int] | None:
-        """The traversable cell of ``goal``'s component nearest ``xy`` within ``ISLAND_HOP``."""
-        labels = self.labels()
-        r0, c0 = self.cell(xy)
-        k = int(math.ceil(ISLAND_HOP / self.resolution))
-        rlo, clo = max(r0 - k, 0), max(c0 - k, 0)
-        window = labels[rlo:r0 + k + 1, clo:c0 + k + 1]
-        rows, cols = np.nonzero(window == labels[goal])
-        if labels[goal] == 0 or rows.size == 0:
-            return None
-        x, y = self.planning_grid.cell_to_world(rows + rlo, cols + clo)
-        d = np.hypot(x - xy[0], y - xy[1])
-        i = int(np.argmin(d))
-        return (int(rows[i] + rlo), int(cols[i] + clo)) if d[i] <= ISLAND_HOP + 0.5 * self.resolution else None
-
-    def labels(self) -> np.ndarray:
-        """8-connected component label of each planning cell (0: lethal), computed once."""
-        if self._labels is None:
-            _, self._labels = cv2.connectedComponents((~self.lethal).astype(np.uint8), connectivity=8)
-        return self._labels
-
     def connected(self, a: tuple[int, int], b: tuple[int, int]) -> bool:
         """Whether two traversable planning cells are in the same 8-connected component.
 
         One OpenCV labelling per planner answers unreachable goals at once, instead of an
         A* search that exhausts the whole component first.
         """
-        labels = self.labels()
+        labels = self._labels
+        if labels is None:
+            _, labels = cv2.connectedComponents((~self.lethal).astype(np.uint8), connectivity=8)
+            self._labels = labels
         return bool(labels[a] == labels[b] and labels[a] != 0)
 
     def distance(self, start_xy, goal_xy) -> float:

@@ -21,7 +21,7 @@ import numpy as np
 from bomc_bt.costmap import grid_clearance
 from bomc_bt.exploration.frontiers import Frontier
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.planner import ISLAND_HOP, PlannerParams
+from bomc_bt.planner import PlannerParams
 
 
 class Reachability:
@@ -79,15 +79,14 @@ class Reachability:
 
 def _near_labels(labels: np.ndarray, lethal: np.ndarray, grid: OccupancyGrid, factor: int,
                  robot_xy: tuple[float, float], radius: float) -> list[int]:
-    """Labels of the traversable components the planner may start in: those within
-    ``ISLAND_HOP`` of the robot's cell when it is traversable (its own, and those the
-    planner hops to from an island), else those within ``radius`` (its start escape)."""
+    """Labels of the traversable components within ``radius`` of the robot (its own cell's,
+    when traversable, else those the planner's start escape may pick)."""
     start = _start_cell(lethal, grid, factor, robot_xy, radius)
     if start is None:
         return []
+    if not lethal[start] and start == tuple(int(v) // factor for v in grid.world_to_cell(*robot_xy)):
+        return [int(labels[start])]
     row, col = (int(v) // factor for v in grid.world_to_cell(robot_xy[0], robot_xy[1]))
-    if not lethal[start] and start == (row, col):
-        radius = ISLAND_HOP  # the planner's start may hop this far (planner.ISLAND_HOP)
     k = int(math.ceil(radius / (grid.resolution * factor)))
     h, w = labels.shape
     window = labels[max(row - k, 0):min(row + k + 1, h), max(col - k, 0):min(col + k + 1, w)]
