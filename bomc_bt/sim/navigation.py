@@ -203,7 +203,8 @@ class Navigator:
         path = current.plan(pose.xy, goal.xy)
         if path is None:
             path = self._squeeze_plan(pose, goal)
-        escape = None if path is not None or current.traversable(pose.xy) else current.nearest_traversable(pose.xy, 1.0)
+        escape = (None if path is not None or current.traversable(pose.xy)
+                  else current.nearest_traversable(pose.xy, 1.0, visible=True))
         if escape is not None and math.hypot(*(escape - pose.xy)) > 0.02:
             # Wedged inside the inflated zone with no plan from here: first step out of it
             # (move_base's recovery would clear the costmap or back up), then replan.
