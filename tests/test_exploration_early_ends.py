@@ -25,7 +25,7 @@ from bomc_bt.exploration.dwfe import ExplorationParams
 from bomc_bt.exploration.explorer import DONE, Explorer
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map, save_map
-from bomc_bt.planner import PlannerParams
+from bomc_bt.planner import GridPlanner, PlannerParams
 from bomc_bt.run import run_build
 from bomc_bt.sim.robot import SimRobot
 from bomc_bt.world import World, load_world
@@ -105,3 +105,25 @@ def test_a_base_wedged_between_two_obstacles_is_pushed_free():
     for _ in range(30):  # three seconds of the controller pushing forward (its step is private)
         robot._move(0.6, 0.0, 0.1)
     assert robot.true_pose.distance_to(wedged) > 1.0  # before: 0.06 m, then wedged for good
+
+
+def test_a_start_in_the_inflated_zone_never_escapes_through_a_wall():
+    """A 0.55 m strip (too narrow for the 0.3 m planner anywhere) behind a one-cell wall
+    of a room: the nearest traversable cell lies 0.65 m away behind that wall. The planner
+    used to start from it, so the path's first leg ran through the wall, and the robot
+    pushed into the wall until the build was "stuck" (hospital, gain)."""
+    data = np.full((cell(3.0), cell(4.0)), FREE, np.int8)
+    data[:cell(0.1), :] = OCCUPIED
+    data[cell(0.65):cell(0.7), :] = OCCUPIED  # the one-cell wall
+    grid = OccupancyGrid(data, RES, (0.0, 0.0))
+    planner = GridPlanner(grid, PlannerParams())
+    start = (1.0, 0.4)
+    assert not planner.traversable(start)
+    path = planner.plan(start, (3.0, 2.0))
+    if path is not None:  # whatever it plans, no leg of it crosses the wall
+        for a, b in zip(path[:-1], path[1:], strict=True):
+            ys = np.linspace(a[1], b[1], 50)
+            xs = np.linspace(a[0], b[0], 50)
+            rows, cols = grid.world_to_cell(xs, ys)
+            assert not (grid.data[rows, cols] == OCCUPIED).any(), (a, b)
+    assert planner.nearest_traversable(start, 1.0, visible=True) is None
