@@ -278,6 +278,8 @@ def main() -> None:
     ap.add_argument("--office-size", default="93x90")
     ap.add_argument("--office-seed", type=int, default=31)
     ap.add_argument("--json", help="write every run (with its coverage curve) to this file")
+    ap.add_argument("--only", default="", help="comma-separated start indices to run (of the --starts drawn); "
+                    "empty: all")
     args = ap.parse_args()
     explorers = args.explorers.split(",")
     max_time = args.minutes * 60.0 if args.minutes > 0 else None
@@ -290,7 +292,10 @@ def main() -> None:
             world = load_world(base)
             starts = ([world.start] if args.starts == 0
                       else sample_starts(world, args.starts, args.clearance, args.seed))
+            only = {int(v) for v in args.only.split(",") if v.strip()}
             for i, start in enumerate(starts):
+                if only and i not in only:
+                    continue
                 world_path = write_world(base, start, root / f"{base.stem}-{i:02d}.yaml")
                 for e in explorers:
                     jobs.append((base.stem, e, i, str(world_path), str(root / f"site-{base.stem}-{i:02d}-{e}"),

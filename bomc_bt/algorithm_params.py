@@ -30,10 +30,19 @@ class PlannerParams:
     goal_tolerance: float = 0.3  # [m] a lethal goal may move this far to a traversable cell
     escape_radius: float = 1.0  # [m] how far to look for a traversable cell from a lethal start
     heuristic_weight: float = 1.0  # [-] above 1: weighted A* (fewer expansions, less clearance-optimal)
+    # [m] while building, the clearance a last-resort plan keeps when none exists with robot_radius:
+    # through a doorway that the lidar maps a cell narrower on each side than it is, or out of a
+    # strip the robot entered while its walls were unknown. Above the base's body radius (0.24 m
+    # in the simulator): mapped walls are thicker than true ones and the 0.1 m planning grid
+    # under-reads clearance, so 0.25 m planned is about 0.28 m true. At or above robot_radius:
+    # never squeeze.
+    squeeze_radius: float = 0.25
 
     def __post_init__(self) -> None:
         if self.robot_radius < 0 or self.inflation_radius < self.robot_radius:
             raise ValueError("need 0 <= robot_radius <= inflation_radius")
+        if not 0 < self.squeeze_radius < 10:
+            raise ValueError(f"squeeze_radius: must be in (0, 10) m, got {self.squeeze_radius}")
         if self.heuristic_weight < 1.0:
             raise ValueError("heuristic_weight must be >= 1")
         if self.resolution <= 0 or self.goal_tolerance < 0 or self.cost_weight < 0:

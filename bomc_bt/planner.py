@@ -89,7 +89,7 @@ class GridPlanner:
         r, c = self.cell(xy)
         return self._inside(r, c) and not bool(self.lethal[r, c])
 
-    def _nearest_traversable(self, xy, radius: float) -> tuple[int, int] | None:
+    def _nearest_traversable(self, xy, radius: float, visible: bool = False) -> tuple[int, int] | None:
         """The traversable planning cell nearest to ``xy`` within ``radius`` metres."""
         r0, c0 = self.cell(xy)
         k = int(math.ceil(radius / self.resolution)) + 1
@@ -102,15 +102,30 @@ class GridPlanner:
             return None
         x, y = self.planning_grid.cell_to_world(rows + rlo, cols + clo)
         d = np.hypot(x - xy[0], y - xy[1])
-        i = int(np.argmin(d))
-        if d[i] > radius + 1e-9:
-            return None
-        return int(rows[i] + rlo), int(cols[i] + clo)
+        for i in np.argsort(d, kind="stable"):
+            if d[i] > radius + 1e-9:
+                return None
+            if not visible or self._in_sight(xy, (float(x[i]), float(y[i]))):
+                return int(rows[i] + rlo), int(cols[i] + clo)
+        return None
 
-    def nearest_traversable(self, xy, radius: float) -> np.ndarray | None:
+    def _in_sight(self, a, b) -> bool:
+        """Whether the straight line from ``a`` to ``b`` crosses no occupied map cell.
+
+        A start inside the inflated zone (a strip 0.7 m wide along a one-cell wall) is
+        planned from the nearest traversable cell: without this test that cell could lie
+        behind the wall, and the robot drove into the wall for good (hospital, issue 16).
+        """
+        n = max(2, int(math.ceil(math.hypot(b[0] - a[0], b[1] - a[1]) / (0.5 * self.grid.resolution))) + 1)
+        rows, cols = self.grid.world_to_cell(np.linspace(a[0], b[0], n), np.linspace(a[1], b[1], n))
+        inside = self.grid.in_bounds(rows, cols)
+        return not bool((self.grid.data[rows[inside], cols[inside]] > 50).any())
+
+    def nearest_traversable(self, xy, radius: float, visible: bool = False) -> np.ndarray | None:
         """``xy`` itself when traversable, else the nearest traversable cell centre within
-        ``radius`` metres, else None (how a lethal goal is judged)."""
-        cell = self._endpoint(np.asarray(xy, dtype=float)[:2], radius)
+        ``radius`` metres (``visible``: in a straight line that crosses no occupied cell),
+        else None (how a lethal goal is judged)."""
+        cell = self._endpoint(np.asarray(xy, dtype=float)[:2], radius, visible)
         if cell is None:
             return None
         return np.asarray(xy, dtype=float)[:2] if self.traversable(xy) else self._centre(*cell)
@@ -136,11 +151,11 @@ class GridPlanner:
             return False
         return not bool(self.lethal[r, c].any())
 
-    def _endpoint(self, xy, radius: float) -> tuple[int, int] | None:
+    def _endpoint(self, xy, radius: float, visible: bool = False) -> tuple[int, int] | None:
         r, c = self.cell(xy)
         if self._inside(r, c) and not self.lethal[r, c]:
             return r, c
-        return self._nearest_traversable(xy, radius)
+        return self._nearest_traversable(xy, radius, visible)
 
     # -- search --------------------------------------------------------------------------
     def plan(self, start_xy, goal_xy) -> np.ndarray | None:
@@ -152,7 +167,7 @@ class GridPlanner:
         """
         start_xy = np.asarray(start_xy, dtype=float)[:2]
         goal_xy = np.asarray(goal_xy, dtype=float)[:2]
-        s = self._endpoint(start_xy, self.params.escape_radius)
+        s = self._endpoint(start_xy, self.params.escape_radius, visible=True)
         g = self._endpoint(goal_xy, self.params.goal_tolerance)
         if s is None or g is None:
             return None

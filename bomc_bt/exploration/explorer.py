@@ -21,7 +21,7 @@ How an exploration ends (``status``):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -133,23 +133,57 @@ class Explorer:
             if goal is not None:
                 return goal
         self.blacklist.readmit(grid, robot_xy)
-        candidates = self._candidates(grid, robot_xy, reach)
         # A frontier whose best target is where the robot already stands (the blind sector
-        # behind a 220-degree lidar) is mapped by the turn towards any other goal.
-        far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance]
-        if gain:
-            choice, best = choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist,
-                                          self._last_anchor)
-        else:
-            choice = choose_frontier([c.frontier for c in far], robot_xy, self.params, self.blacklist)
-            best = next((c for c in far if c.frontier is choice.frontier), None)
+        # behind a 220-degree lidar) is mapped by the turn towards any other goal: _choose
+        # skips those.
+        choice, best = self._choose(grid, robot_xy, reach, self._candidates(grid, robot_xy, reach))
         self.last_choice = choice
+        window = choice.window
+        if best is None and self.unreachable and reach is not None:
+            choice, best = self._from_pocket(grid, robot_xy, reach, choice)
+            window = "squeeze"
         if best is None:
             unreachable = f"; {len(self.unreachable)} more the planner cannot reach" if self.unreachable else ""
             return self._finish(DONE, (choice.reason or "no frontiers left") + unreachable)
         self.goals += 1
         self._last_anchor = best.anchor
-        return Goal(best.goal, best.frontier, choice.window, now, anchor=best.anchor)
+        return Goal(best.goal, best.frontier, window, now, anchor=best.anchor)
+
+    def _choose(self, grid: OccupancyGrid, robot_xy: tuple[float, float], reach: Reachability | None,
+                candidates: list[Candidate]) -> tuple[Choice, Candidate | None]:
+        """The explorer's pick among ``candidates`` (those far enough from the robot)."""
+        far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance]
+        if self.params.explorer == "gain":
+            return choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist, self._last_anchor)
+        choice = choose_frontier([c.frontier for c in far], robot_xy, self.params, self.blacklist)
+        return choice, next((c for c in far if c.frontier is choice.frontier), None)
+
+    def _from_pocket(self, grid: OccupancyGrid, robot_xy: tuple[float, float], reach: Reachability,
+                     choice: Choice) -> tuple[Choice, Candidate | None]:
+        """A goal the robot reaches only by squeezing, or (``choice``, None) when there is none.
+
+        The planner's radius (0.3 m) is wider than the body (0.24 m), and the lidar maps a
+        wall about a cell thicker than it is: a 0.7 m doorway reads as no way through.
+        Planning through unknown space also takes the robot through gaps that, once seen,
+        are that narrow (the strip between a building and the map's edge). Every frontier
+        beyond is then "unreachable" and the build ended "done" with most of the floor
+        unmapped (hospital, issue 16). So when the planner's component has no goal left,
+        frontiers are chosen in the component of the squeeze radius
+        (:attr:`PlannerParams.squeeze_radius`, still wider than the body), and the navigator
+        squeezes through to them (:mod:`bomc_bt.sim.navigation`).
+        """
+        planner = reach.params
+        if planner.squeeze_radius >= planner.robot_radius:
+            return choice, None
+        wide = Reachability(grid, replace(planner, robot_radius=planner.squeeze_radius), robot_xy)
+        if np.count_nonzero(wide.component) <= np.count_nonzero(reach.component):
+            return choice, None
+        kept = self.frontiers, self.unreachable
+        squeezed, best = self._choose(grid, robot_xy, wide, self._candidates(grid, robot_xy, wide))
+        if best is None:
+            self.frontiers, self.unreachable = kept
+            return choice, None
+        return squeezed, best
 
     def _candidates(self, grid: OccupancyGrid, robot_xy: tuple[float, float],
                     reach: Reachability | None) -> list[Candidate]:

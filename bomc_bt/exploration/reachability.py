@@ -29,6 +29,7 @@ class Reachability:
 
     def __init__(self, grid: OccupancyGrid, params: PlannerParams, robot_xy: tuple[float, float]):
         self.grid = grid
+        self.params = params
         self.factor = max(1, int(round(params.resolution / grid.resolution)))
         res = grid.resolution * self.factor
         clearance, unknown = grid_clearance(grid, self.factor)

@@ -15,6 +15,14 @@ Status rules (what a behaviour sees):
   ``progress_timeout`` seconds of sim time (a blocked corridor with no way around, a
   person who will not move, an obstacle the lidar cannot see).
 * CANCELLED: a new goal or :meth:`cancel` pre-empted it.
+
+Squeezing (build only): when the live planner has no path, the navigator tries the
+``squeeze`` planner (known space only, the clearance of ``PlannerParams.squeeze_radius``)
+before it waits or fails. Planning through unknown space can take the robot through a gap
+that, once seen, is narrower than twice the planner's radius: the strip between a
+building and the map's edge, a gap between furniture. Without it the robot waited there
+for the progress timeout and exploration ended "done" with the rest of the building
+unreachable (issue 16, hospital).
 """
 
 from __future__ import annotations
@@ -41,6 +49,7 @@ class NavHandle(RequestHandle):
 
 PlannerSource = Callable[[], GridPlanner]
 GoalPlannerSource = Callable[[np.ndarray, np.ndarray], Any]  # (start, goal) -> a planner for that goal
+SqueezeSource = Callable[[], GridPlanner | None]
 PathCheck = Callable[[np.ndarray, float], bool]  # (path ahead, metres to skip) -> still clear?
 
 
@@ -63,6 +72,7 @@ class Navigator:
         self._stuck_since: float | None = None
         self._backup_until = -math.inf
         self._at_position = False
+        self.squeeze: SqueezeSource | None = None  # the last-resort planner (set by the robot)
 
     # -- goals ---------------------------------------------------------------------------
     def start(self, goal: Pose2D, pose: Pose2D, now: float, planner: GoalPlannerSource,
@@ -82,6 +92,8 @@ class Navigator:
             handle.finish(Status.BLOCKED, "goal is inside an obstacle")
             return handle
         path = current.plan(pose.xy, goal.xy)
+        if path is None:
+            path = self._squeeze_plan(pose, goal)
         if path is None:
             static = static_planner()
             if static is current or static.plan(pose.xy, goal.xy) is None:
@@ -191,7 +203,10 @@ class Navigator:
         if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
             return self._end(Status.BLOCKED, "goal is inside an obstacle")
         path = current.plan(pose.xy, goal.xy)
-        escape = None if path is not None or current.traversable(pose.xy) else current.nearest_traversable(pose.xy, 1.0)
+        if path is None:
+            path = self._squeeze_plan(pose, goal)
+        escape = (None if path is not None or current.traversable(pose.xy)
+                  else current.nearest_traversable(pose.xy, 1.0, visible=True))
         if escape is not None and math.hypot(*(escape - pose.xy)) > 0.02:
             # Wedged inside the inflated zone with no plan from here: first step out of it
             # (move_base's recovery would clear the costmap or back up), then replan.
@@ -207,6 +222,17 @@ class Navigator:
             self._set_path(path)
             self._best = path_length(path)
         return None
+
+    def _squeeze_plan(self, pose: Pose2D, goal: Pose2D) -> np.ndarray | None:
+        """A path that keeps only ``squeeze_radius`` from walls, through known space; None
+        without a squeeze planner or a path."""
+        planner = self.squeeze() if self.squeeze is not None else None
+        if planner is None or planner.nearest_traversable(goal.xy, self.goal_tolerance) is None:
+            return None
+        path = planner.plan(pose.xy, goal.xy)
+        if path is not None and self.handle is not None:
+            self.handle._message = "squeezing through a gap narrower than the planner's clearance"
+        return path
 
     # -- path geometry -------------------------------------------------------------------
     def _closest(self, pose: Pose2D) -> float:

@@ -45,9 +45,9 @@ class WindowPlanner:
         path = self.window.plan(start_xy, goal_xy)
         return path if path is not None else self._whole().plan(start_xy, goal_xy)
 
-    def nearest_traversable(self, xy, tolerance: float) -> np.ndarray | None:
-        found = self.window.nearest_traversable(xy, tolerance)
-        return found if found is not None else self._whole().nearest_traversable(xy, tolerance)
+    def nearest_traversable(self, xy, radius: float, visible: bool = False) -> np.ndarray | None:
+        found = self.window.nearest_traversable(xy, radius, visible=visible)
+        return found if found is not None else self._whole().nearest_traversable(xy, radius, visible=visible)
 
     def traversable(self, xy) -> bool:
         return self.window.traversable(xy) or self._whole().traversable(xy)
@@ -122,6 +122,17 @@ class SimPlanners:
         if sides[3]:
             extra[:, -band:] = True
         return GridPlanner(window, self.params, extra)
+
+    def squeeze(self) -> GridPlanner | None:
+        """While building, the planner with ``squeeze_radius`` on known space only: the last
+        resort when the live planner has no path (a robot inside a pocket whose way out is
+        narrower than ``robot_radius`` allows). None once a saved map is in use."""
+        if self.map is not None or self.params.squeeze_radius >= self.params.robot_radius:
+            return None
+        assert self.mapper is not None
+        params = replace(self.params, robot_radius=self.params.squeeze_radius, allow_unknown=False)
+        return self._cached("squeeze", ("mapper", self.mapper.updates),
+                            lambda: GridPlanner(self.mapper.grid(), params))
 
     def path_clear(self, path: np.ndarray, skip: float) -> bool:
         """Cheap check of the plan against what is known to be occupied now (no rebuild)."""

@@ -95,6 +95,7 @@ class SimRobot:
         # Maps and localization.
         self.mapper = Mapper.like(world.grid, p.mapper) if mode == "build" else None
         self.planners = SimPlanners(p.planner, self.mapper)
+        self.navigator.squeeze = self.planners.squeeze
         self._map: OccupancyGrid | None = None
         self._obstacles: ObstacleLayer | None = None
         self._next_obstacle_update = 0.0
@@ -217,22 +218,23 @@ class SimRobot:
         self.distance_travelled += math.hypot(x - t.x, y - t.y)
         self._true = Pose2D(x, y, yaw)
 
-    def _slide_out(self, t: Pose2D, radius: float, step: float = 0.02) -> tuple[float, float]:
+    def _slide_out(self, t: Pose2D, radius: float) -> tuple[float, float]:
         """Contact resolution: a base pressed against something slides a little away from it.
 
         Without it a robot wedged in a spot tighter than its body (a half-seen doorway, a
         chair leg) could refuse every forward and backward step for ever; a real base's
-        bumper pushes it off instead. The step follows the clearance gradient.
+        bumper pushes it off instead. The step is one cell of the collision map, to the
+        neighbouring point of most clearance: clearance is read per cell, so a shorter
+        step lands on the same value and a wedged robot (between a chair and a pillar,
+        both its forward and its backward step refused) never moved (hospital, issue 16).
         """
         c = self.scene.clearance
-        before = c(t.x, t.y)
-        d = 0.05
-        gx, gy = c(t.x + d, t.y) - c(t.x - d, t.y), c(t.x, t.y + d) - c(t.x, t.y - d)
-        norm = math.hypot(gx, gy)
-        if norm < 1e-9:
-            return t.x, t.y
-        x, y = t.x + step * gx / norm, t.y + step * gy / norm
-        return (x, y) if c(x, y) > before else (t.x, t.y)
+        step = self.scene.grid.resolution
+        angles = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+        xs, ys = t.x + step * np.cos(angles), t.y + step * np.sin(angles)
+        room = [c(float(x), float(y)) for x, y in zip(xs, ys, strict=True)]
+        best = int(np.argmax(room))
+        return (float(xs[best]), float(ys[best])) if room[best] > c(t.x, t.y) else (t.x, t.y)
 
     # -- sensing and maps ------------------------------------------------------------------
     def _take_scan(self) -> None:
