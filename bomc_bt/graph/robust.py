@@ -52,7 +52,6 @@ import numpy as np
 
 from bomc_bt.graph.association import near_any
 from bomc_bt.graph.extents import NodeExtents
-from bomc_bt.graph.footprints import union
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.tentative import TentativeSightings
 
@@ -173,7 +172,7 @@ class RobustPolicy:
                 graph.relocate(keep, (keep.position * keep.observations + drop.position * drop.observations) / total)
                 graph.add_observations(keep, drop.observations)
                 graph.set_confidence(keep, max(keep.confidence, drop.confidence))
-                graph.set_footprint(keep, union(keep.footprint, drop.footprint))
+                self.extents.fold(graph, keep, drop)
                 events.append(graph.remove(drop, session, stamp, merged_into=keep.id))  # never "moved" back
                 events.append(graph.report("updated", keep, session, stamp))
                 matched.add(keep.id)
@@ -224,7 +223,7 @@ class RobustPolicy:
         previous = v.position.copy()
         graph.relocate(v, arrival.position.copy())
         if self.extents.boxes:
-            graph.set_footprint(v, arrival.footprint)
+            self.extents.adopt(graph, v, arrival)
         graph.add_observations(v, arrival.observations)
         graph.set_confidence(v, max(v.confidence, arrival.confidence))
         graph.touch(v, session, arrival.last_seen if arrival.last_seen is not None else stamp)
@@ -269,7 +268,7 @@ class RobustPolicy:
         else:
             graph.relocate(v, o.position.copy())
         if self.extents.boxes:  # where it stood before says nothing about its size here
-            graph.set_footprint(v, o.box)
+            self.extents.restart(graph, v, o)
         graph.set_confidence(v, float(o.confidence))
         graph.touch(v, session, stamp)
         return graph.report("moved", v, session, stamp, previous)

@@ -1,0 +1,68 @@
+"""Neighbours stay apart with the default configuration: chairs side by side at a table are
+two nodes, and one object seen end by end in cut-off views stays one (graph level, fast)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bomc_bt.graph import AssociationParams, ObjectGraph, Observation
+
+
+def view(category: str, x0: float, x1: float, truncated: bool = False, y0: float = -0.25,
+         y1: float = 0.25) -> Observation:
+    """A view whose points cover the floor box (x0, y0)-(x1, y1); centre in its middle."""
+    return Observation(category, np.array([(x0 + x1) / 2, (y0 + y1) / 2, 0.5]), 0.9, 500,
+                       0.5 * max(x1 - x0, y1 - y0), box=np.array([x0, y0, x1, y1]), truncated=truncated)
+
+
+def chairs_at_a_table(graph: ObjectGraph, rounds: int) -> list:
+    """Chair A (0.5 m, centred at -0.35) and chair B (centred at +0.35): 0.7 m apart, a 0.2 m
+    gap. Each is seen whole, and in views cut off by the other (its outer part only), whose
+    centre lies within delta_c (0.7 m) of the other chair. Every frame expects what it shows."""
+    events = []
+    t = 0.0
+    for _ in range(rounds):
+        for frame in ([view("chair", -0.6, -0.1)], [view("chair", 0.1, 0.6)],
+                      [view("chair", -0.35, -0.1, truncated=True)], [view("chair", 0.1, 0.35, truncated=True)],
+                      [view("chair", -0.6, -0.1), view("chair", 0.1, 0.35, truncated=True)]):
+            expected = [v.id for v in graph.nodes.values()
+                        if any(abs(v.position[0] - o.position[0]) < 0.3 for o in frame)]
+            events += graph.associate(frame, expected, 1, t)
+            t += 1.0
+    return events
+
+
+def test_two_chairs_07_m_apart_at_a_table_stay_two_nodes_and_neither_is_removed():
+    graph = ObjectGraph(AssociationParams())  # the defaults: what every pass runs with
+    events = chairs_at_a_table(graph, rounds=6)
+    chairs = sorted(graph.nodes.values(), key=lambda v: v.position[0])
+    assert len(chairs) == 2, [np.round(v.position, 2).tolist() for v in chairs]
+    assert chairs[0].position[0] < -0.2 and chairs[1].position[0] > 0.2  # each on its own chair
+    assert [e.kind for e in events].count("removed") == 0
+    assert [e.kind for e in events].count("added") == 2
+
+
+def test_an_object_seen_end_by_end_in_cut_off_views_stays_one_node():
+    """A 0.9 m cabinet seen past its neighbour: first only its left end, then only its right
+    end, both views cut off. The footprint holds no whole view, so the right end's view, clear
+    of the left end's box, is not taken for a neighbour (lab-b's cabinet was doubled)."""
+    graph = ObjectGraph(AssociationParams())
+    t = 0.0
+    for _ in range(4):
+        for frame in ([view("cabinet", 0.0, 0.3, truncated=True)], [view("cabinet", 0.6, 0.9, truncated=True)]):
+            graph.associate(frame, list(graph.nodes), 1, t)
+            t += 1.0
+    assert len(graph.nodes) == 1
+
+
+def test_a_whole_view_makes_the_footprint_tell_neighbours_apart():
+    """Once a whole view of the chair is in its footprint, a view beside it is a second chair."""
+    graph = ObjectGraph(AssociationParams())
+    for t in range(3):
+        graph.associate([view("chair", -0.35, -0.1, truncated=True)], list(graph.nodes), 1, float(t))
+    assert len(graph.nodes) == 1
+    for t in range(3, 6):
+        graph.associate([view("chair", -0.6, -0.1)], list(graph.nodes), 1, float(t))  # whole
+    for t in range(6, 9):
+        graph.associate([view("chair", 0.1, 0.35, truncated=True)], [], 1, float(t))  # its neighbour
+    assert len(graph.nodes) == 2
