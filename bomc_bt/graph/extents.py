@@ -33,9 +33,10 @@ class NodeExtents:
     longest single view of that object showed (plus the noise pad): two chairs 0.8 m apart
     at a table, each seen alone with its mask bleeding towards the other, once made one
     "chair" footprint 1.5 m long that then counted as big and swallowed every chair around
-    the table (Environment A: 31 of 82 chair nodes, chair recall 0.65). Opt-in
-    (``separate_neighbours``): a small object's view whose box lies clear of the node's
-    footprint is another object, however near.
+    the table (Environment A: 31 of 82 chair nodes, chair recall 0.65). With
+    ``separate_neighbours``: a small object's view whose box lies clear of the node's
+    footprint is another object, however near, once the footprint holds a whole view
+    (:meth:`separate`).
     """
 
     def __init__(self, params: AssociationParams):

@@ -22,8 +22,9 @@
 * *No duplicates.* An unmatched observation within delta_c of a same-category node
   (which then has been matched by a closer observation) is absorbed, as in the paper.
   Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
-* *Neighbours stay apart* (opt-in, ``separate_neighbours``). A view whose floor box lies
-  clear of a small node's footprint is another object, however near (chairs 0.8 m apart round a table, delta_c 0.7 m).
+* *Neighbours stay apart* (``separate_neighbours``). A view whose floor box lies clear of
+  a small node's footprint is another object, however near (chairs 0.8 m apart round a
+  table, delta_c 0.7 m), once that footprint holds a whole view (not only cut-off ones).
 * *Moves keep their id.* An unmatched observation farther than delta_c from every
   same-category node but within ``move_radius`` of a same-category node that was removed
   earlier in this session is taken to be that object moved: it keeps its id and the
