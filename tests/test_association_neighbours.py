@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bomc_bt.graph import AssociationParams, ObjectGraph, Observation
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
 
 
 def view(category: str, x0: float, x1: float, truncated: bool = False, y0: float = -0.25,
@@ -66,3 +66,20 @@ def test_a_whole_view_makes_the_footprint_tell_neighbours_apart():
     for t in range(6, 9):
         graph.associate([view("chair", 0.1, 0.35, truncated=True)], [], 1, float(t))  # its neighbour
     assert len(graph.nodes) == 2
+
+
+def test_a_chair_hidden_behind_its_neighbour_is_not_folded_into_it_next_pass():
+    """Next pass, the graph loads two chairs 0.66 m apart with their footprints. A frame sees
+    chair B whole while chair A, in the field of view but hidden, is not expected: A lies
+    within B's gate, but its footprint is clear of the view, so A is not B's duplicate and
+    stays (its removal was half of session 2's chair misses on a generated office)."""
+    a = Node(0, "chair", np.array([-0.33, 0.0, 0.5]), 0.9, 1, 1, observations=9,
+             footprint=np.array([-0.58, -0.25, -0.08, 0.25]))
+    b = Node(1, "chair", np.array([0.33, 0.0, 0.5]), 0.9, 1, 1, observations=9,
+             footprint=np.array([0.08, -0.25, 0.58, 0.25]))
+    graph = ObjectGraph(AssociationParams(), [a, b], next_id=2)
+    events = []
+    for t in range(4):
+        events += graph.associate([view("chair", 0.08, 0.58)], [1], 2, float(t), in_view=[0, 1])
+    assert sorted(graph.nodes) == [0, 1]
+    assert not [e for e in events if e.kind == "removed"]
