@@ -83,3 +83,16 @@ def test_a_chair_hidden_behind_its_neighbour_is_not_folded_into_it_next_pass():
         events += graph.associate([view("chair", 0.08, 0.58)], [1], 2, float(t), in_view=[0, 1])
     assert sorted(graph.nodes) == [0, 1]
     assert not [e for e in events if e.kind == "removed"]
+
+
+def test_a_view_bleeding_over_two_chairs_does_not_fold_one_into_the_other():
+    """Two chairs 0.7 m apart, both known whole; a view whose mask bled over both covers both
+    footprints. The one it matches keeps its neighbour: their own footprints lie apart."""
+    a = Node(0, "chair", np.array([-0.35, 0.0, 0.5]), 0.9, 1, 1, observations=9,
+             footprint=np.array([-0.6, -0.25, -0.1, 0.25]))
+    b = Node(1, "chair", np.array([0.35, 0.0, 0.5]), 0.9, 1, 1, observations=9,
+             footprint=np.array([0.1, -0.25, 0.6, 0.25]))
+    graph = ObjectGraph(AssociationParams(), [a, b], next_id=2)
+    events = graph.associate([view("chair", -0.45, 0.45)], [1], 2, 0.0, in_view=[0, 1])
+    assert sorted(graph.nodes) == [0, 1]
+    assert not [e for e in events if e.kind == "removed"]

@@ -72,6 +72,18 @@ class NodeExtents:
             return False
         return v.id not in self._partial and box_gap(fp, o.box) > NOISE_PAD
 
+    def apart(self, v: Node, w: Node, v_footprint: np.ndarray | None) -> bool:
+        """With ``separate_neighbours``: whether ``v`` and ``w`` are plainly two objects: both
+        small, both footprints hold a whole view, and ``v_footprint`` (``v``'s before the
+        current view changed it) lies clear of ``w``'s (farther than the noise pad). A view
+        whose mask bled over both (chairs side by side) does not make them one."""
+        if not self.boxes or not self.params.separate_neighbours or v_footprint is None:
+            return False
+        if v.id in self._partial or w.footprint is None or w.id in self._partial or self.is_big(w):
+            return False
+        return _side(v_footprint) <= self.params.distance(v.category) + BIG_MARGIN \
+            and box_gap(v_footprint, w.footprint) > NOISE_PAD
+
     def fold(self, graph: ObjectGraph, keep: Node, drop: Node) -> None:
         """``drop`` is folded into ``keep``: the union of their footprints, whole if either was."""
         whole = keep.footprint is not None and keep.id not in self._partial

@@ -96,11 +96,13 @@ class RobustPolicy:
         pairs.sort()
         matched_nodes: set[int] = set()
         matched_obs: set[int] = set()
+        footprints: dict[int, np.ndarray | None] = {}  # matched nodes' footprints before this frame
         for _, vid, j in pairs:
             if vid in matched_nodes or j in matched_obs:
                 continue
             matched_nodes.add(vid)
             matched_obs.add(j)
+            footprints[vid] = graph.nodes[vid].footprint
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
         for vid in exp:
             if vid in matched_nodes:
@@ -123,7 +125,8 @@ class RobustPolicy:
             if not moved:
                 self.extents.grow(graph, placed[-1], o, self.gate(o))
         hidden = set(in_view or ()) - set(exp)
-        events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp))
+        events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
+                                                    footprints))
         return events
 
     def _near(self, graph: ObjectGraph, obs: Sequence[Observation]) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -141,7 +144,8 @@ class RobustPolicy:
         return out
 
     def _merge_hidden_duplicates(self, graph: ObjectGraph, pairs: list[Pair], matched: set[int], hidden: set[int],
-                                 obs: Sequence[Observation], session: int, stamp: float) -> list[Event]:
+                                 obs: Sequence[Observation], session: int, stamp: float,
+                                 footprints: dict[int, np.ndarray | None]) -> list[Event]:
         """Fold into the matched node any same-category node that the same observation also
         covers: unmatched and either hidden (in view, not expected) or lying on the floor
         area the observation's own points cover.
@@ -153,7 +157,9 @@ class RobustPolicy:
         a table whose node sits at the other. An observation that covers both settles it:
         the node seen more often keeps its id (position averaged by observations), the
         other is removed. A node that was expected but unmatched and lies elsewhere is not
-        touched: it may be a second object, and the miss count decides.
+        touched: it may be a second object, and the miss count decides. Nor are two small
+        nodes whose whole footprints lie apart (:meth:`NodeExtents.apart`): two chairs side by
+        side, which a view bleeding over both covers.
         """
         events: list[Event] = []
         best: dict[int, int] = {}
@@ -166,7 +172,8 @@ class RobustPolicy:
             covered |= {v.id for v, _ in graph.within(o.category, o.position, self.gate(o)) if v.id in hidden}
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
-                if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o):
+                if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o) \
+                        or self.extents.apart(v, other, footprints.get(vid)):
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
