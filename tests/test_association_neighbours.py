@@ -96,3 +96,18 @@ def test_a_view_bleeding_over_two_chairs_does_not_fold_one_into_the_other():
     events = graph.associate([view("chair", -0.45, 0.45)], [1], 2, 0.0, in_view=[0, 1])
     assert sorted(graph.nodes) == [0, 1]
     assert not [e for e in events if e.kind == "removed"]
+
+
+def test_folding_a_neighbour_does_not_make_a_chair_two_chairs_long():
+    """A fold of a hidden node into a chair keeps the chair's footprint when the union would
+    be longer than either's views: otherwise the 1.2 m "chair" counts as big and swallows
+    every chair around it."""
+    a = Node(0, "chair", np.array([-0.35, 0.0, 0.5]), 0.9, 1, 1, observations=9,
+             footprint=np.array([-0.6, -0.25, -0.1, 0.25]))
+    b = Node(1, "chair", np.array([0.1, 0.0, 0.5]), 0.9, 1, 1, observations=2,
+             footprint=np.array([0.05, -0.25, 0.55, 0.25]))
+    graph = ObjectGraph(AssociationParams(separate_neighbours=False), [a, b], next_id=2)
+    graph.associate([view("chair", -0.6, -0.1)], [0], 2, 0.0, in_view=[0, 1])
+    assert sorted(graph.nodes) == [0]  # folded: hidden and within the gate
+    fp = graph.nodes[0].footprint
+    assert fp[2] - fp[0] < 0.75

@@ -85,11 +85,22 @@ class NodeExtents:
             and box_gap(v_footprint, w.footprint) > NOISE_PAD
 
     def fold(self, graph: ObjectGraph, keep: Node, drop: Node) -> None:
-        """``drop`` is folded into ``keep``: the union of their footprints, whole if either was."""
+        """``drop`` is folded into ``keep``: the union of their footprints, whole if either was,
+        unless that union is longer than the longest view of either (plus ``BIG_MARGIN``):
+        then they were two small objects, and a "chair" two chairs long would count as big
+        and swallow its neighbours (a generated office: one footprint 1.6 m long over two
+        chairs after a fold); ``keep`` keeps its own."""
         whole = keep.footprint is not None and keep.id not in self._partial
         whole |= drop.footprint is not None and drop.id not in self._partial
-        graph.set_footprint(keep, union(keep.footprint, drop.footprint))
-        self._mark(keep.id, whole)
+        grown = union(keep.footprint, drop.footprint)
+        longest = max(self._longest(keep), self._longest(drop))
+        if keep.footprint is None or grown is None or _side(grown) <= longest + BIG_MARGIN:
+            graph.set_footprint(keep, grown)
+            self._mark(keep.id, whole)
+
+    def _longest(self, v: Node) -> float:
+        """The longest single view of ``v`` (its footprint's side when loaded from the store)."""
+        return self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0)
 
     def adopt(self, graph: ObjectGraph, v: Node, arrival: Node) -> None:
         """``v`` moved to where ``arrival`` stands: it takes the arrival's footprint."""
