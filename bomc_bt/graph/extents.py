@@ -33,15 +33,19 @@ class NodeExtents:
     longest single view of that object showed (plus the noise pad): two chairs 0.8 m apart
     at a table, each seen alone with its mask bleeding towards the other, once made one
     "chair" footprint 1.5 m long that then counted as big and swallowed every chair around
-    the table (Environment A: 31 of 82 chair nodes, chair recall 0.65). Opt-in
-    (``separate_neighbours``): a small object's view whose box lies clear of the node's
-    footprint is another object, however near.
+    the table (Environment A: 31 of 82 chair nodes, chair recall 0.65). With
+    ``separate_neighbours``: a small object's view whose box lies clear of the node's
+    footprint is another object, however near, once the footprint holds a whole view
+    (:meth:`separate`).
     """
 
     def __init__(self, params: AssociationParams):
         self.params = params
         self.boxes = params.footprint_overlap > 0.0  # footprints take part in association
         self._longest_view: dict[int, float] = {}  # node id: longest side of one view's box
+        # nodes whose footprint holds only views cut off by an occluder or the image border
+        # (a footprint loaded from the store counts as whole: a pass saw most objects whole)
+        self._partial: set[int] = set()
 
     def reach(self, o: Observation) -> float:
         """How far from ``o`` a node whose size makes it the same object may lie."""
@@ -56,15 +60,74 @@ class NodeExtents:
         return self.boxes and fp is not None and _side(fp) > self.params.distance(v.category) + BIG_MARGIN
 
     def separate(self, v: Node, o: Observation) -> bool:
-        """With ``separate_neighbours`` (opt-in): whether ``o`` is plainly not ``v``'s object:
-        ``v`` is small and the floor the view covers lies clear of the floor ``v``'s object
-        covered (farther than the noise pad). A view of a part of an object lies on its
-        footprint; one beside it is a neighbour -- except that two partial views of one
-        object's two ends can lie apart too (lab-b's cabinet was doubled), hence opt-in."""
+        """Whether ``o`` is plainly not ``v``'s object: ``v`` is small, its footprint holds a
+        whole view of its object, and the floor the view covers lies clear of it (farther
+        than the noise pad). Any view of an object, whole or cut off, lies on the floor a
+        whole view of it covered; one beside it is a neighbour (chairs 0.8 m apart at a
+        table, delta_c 0.7 m). A footprint made of views cut off by an occluder or the
+        image border may hold only one end of the object, and a view of its other end lies
+        clear of it (lab-b's cabinet, seen end by end, was doubled): no separation then."""
         fp = v.footprint
         if not self.boxes or fp is None or o.box is None or not self.params.separate_neighbours or self.is_big(v):
             return False
-        return box_gap(fp, o.box) > NOISE_PAD
+        return v.id not in self._partial and box_gap(fp, o.box) > NOISE_PAD
+
+    def apart(self, v: Node, w: Node, v_footprint: np.ndarray | None) -> bool:
+        """With ``separate_neighbours``: whether ``v`` and ``w`` are plainly two objects: both
+        small, both footprints hold a whole view, and ``v_footprint`` (``v``'s before the
+        current view changed it) lies clear of ``w``'s (farther than the noise pad). A view
+        whose mask bled over both (chairs side by side) does not make them one."""
+        if not self.boxes or not self.params.separate_neighbours or v_footprint is None:
+            return False
+        if v.id in self._partial or w.footprint is None or w.id in self._partial or self.is_big(w):
+            return False
+        return _side(v_footprint) <= self.params.distance(v.category) + BIG_MARGIN \
+            and box_gap(v_footprint, w.footprint) > NOISE_PAD
+
+    def fold(self, graph: ObjectGraph, keep: Node, drop: Node) -> None:
+        """``drop`` is folded into ``keep``: the union of their footprints, whole if either was,
+        unless that union is longer than the longest view of either (plus ``BIG_MARGIN``):
+        then they were two small objects, and a "chair" two chairs long would count as big
+        and swallow its neighbours (a generated office: one footprint 1.6 m long over two
+        chairs after a fold); ``keep`` keeps its own."""
+        whole = keep.footprint is not None and keep.id not in self._partial
+        whole |= drop.footprint is not None and drop.id not in self._partial
+        grown = union(keep.footprint, drop.footprint)
+        longest = max(self._longest(keep), self._longest(drop))
+        if keep.footprint is None or grown is None or _side(grown) <= longest + BIG_MARGIN:
+            graph.set_footprint(keep, grown)
+            self._mark(keep.id, whole)
+
+    def _longest(self, v: Node) -> float:
+        """The longest single view of ``v`` (its footprint's side when loaded from the store)."""
+        return self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0)
+
+    def adopt(self, graph: ObjectGraph, v: Node, arrival: Node) -> None:
+        """``v`` moved to where ``arrival`` stands: it takes the arrival's footprint."""
+        graph.set_footprint(v, arrival.footprint)
+        self._longest_view.pop(v.id, None)
+        self._mark(v.id, arrival.id not in self._partial)
+
+    def restart(self, graph: ObjectGraph, v: Node, o: Observation) -> None:
+        """``v`` moved to where ``o`` saw it: its footprint starts over from the view."""
+        graph.set_footprint(v, o.box)
+        self._longest_view.pop(v.id, None)
+        self._mark(v.id, not o.truncated)
+
+    def to_json(self) -> dict:
+        """What a resumed pass needs: longest views and partial footprints (JSON-able)."""
+        return {"longest": {str(i): x for i, x in self._longest_view.items()}, "partial": sorted(self._partial)}
+
+    def restore(self, data: dict) -> None:
+        """Put back what :meth:`to_json` saved."""
+        self._longest_view = {int(k): float(x) for k, x in data.get("longest", {}).items()}
+        self._partial = {int(i) for i in data.get("partial", [])}
+
+    def _mark(self, node_id: int, whole: bool) -> None:
+        if whole:
+            self._partial.discard(node_id)
+        else:
+            self._partial.add(node_id)
 
     def grow(self, graph: ObjectGraph, v: Node, o: Observation, gate: float, restart: bool = False,
              extend: bool = False) -> None:
@@ -95,9 +158,11 @@ class NodeExtents:
             longest = max(self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0),
                           _side(o.box))
             self._longest_view[v.id] = longest
+            kept_whole = not restart and v.footprint is not None and v.id not in self._partial
             grown = o.box.copy() if restart else union(v.footprint, o.box)
             if restart or extend or _side(grown) <= longest + BIG_MARGIN:
                 graph.set_footprint(v, grown)
+                self._mark(v.id, kept_whole or not o.truncated)
 
     def touched_node(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """The big same-category node whose footprint a truncated view lies against, if any.

@@ -141,10 +141,12 @@ class ObjectGraph:
     def pass_state(self) -> dict:
         """What the graph keeps in memory during a pass besides the nodes the store holds:
         when each node was last seen, counted misses, this session's removals (move
-        candidates), reported positions, widened gates and first sightings awaiting
+        candidates), reported positions, widened gates, which footprints hold only partial
+        views (and their longest view) and first sightings awaiting
         confirmation. JSON-able; saved with every frame so a resumed pass continues exactly
         (:mod:`bomc_bt.pass_resume`)."""
         tentative = getattr(self.policy, "tentative", None)
+        extents = getattr(self.policy, "extents", None)
         return {
             "session": self._session,
             "last_seen": {str(i): n.last_seen for i, n in self.nodes.items() if n.last_seen is not None},
@@ -153,6 +155,7 @@ class ObjectGraph:
             "reported": {str(i): p.tolist() for i, p in self._reported.items()},
             "gates": {str(i): g for i in self.nodes if (g := self.index.gate_of(i)) > 0.0},
             "tentative": None if tentative is None else tentative.to_json(),
+            "extents": None if extents is None else extents.to_json(),
         }
 
     def restore_pass_state(self, state: dict, removed: dict[int, Node]) -> None:
@@ -169,6 +172,9 @@ class ObjectGraph:
         tentative = getattr(self.policy, "tentative", None)
         if tentative is not None and state.get("tentative") is not None:
             tentative.restore(state["tentative"])
+        extents = getattr(self.policy, "extents", None)
+        if extents is not None and state.get("extents") is not None:
+            extents.restore(state["extents"])
 
     # ---------------------------------------------------------------- mutations
     def insert(self, node: Node) -> None:

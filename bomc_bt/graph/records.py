@@ -141,9 +141,10 @@ class AssociationParams:
     # [m] robust: gap between a truncated view's box and a big object's footprint that still
     # touches it (about the width of what hides the rest: a chair in front of a table)
     footprint_touch: float = 0.5
-    # [bool] robust: a view whose box lies clear of a small node's footprint is another object
-    # (chairs side by side at a table); off by default until it stops doubling lab-b's cabinet
-    separate_neighbours: bool = False
+    # [bool] robust: a view whose box lies clear of a small node's footprint (one that holds a
+    # whole view of the object, not only views cut off by an occluder) is another object
+    # (chairs side by side at a table)
+    separate_neighbours: bool = True
     # [-] a detection nearer to where the operator deleted an object of its category than to
     # any node counts only at this confidence or more (bomc_bt.graph.operator_edits)
     readd_confidence: float = 0.95

@@ -22,8 +22,9 @@
 * *No duplicates.* An unmatched observation within delta_c of a same-category node
   (which then has been matched by a closer observation) is absorbed, as in the paper.
   Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
-* *Neighbours stay apart* (opt-in, ``separate_neighbours``). A view whose floor box lies
-  clear of a small node's footprint is another object, however near (chairs 0.8 m apart round a table, delta_c 0.7 m).
+* *Neighbours stay apart* (``separate_neighbours``). A view whose floor box lies clear of
+  a small node's footprint is another object, however near (chairs 0.8 m apart round a
+  table, delta_c 0.7 m), once that footprint holds a whole view (not only cut-off ones).
 * *Moves keep their id.* An unmatched observation farther than delta_c from every
   same-category node but within ``move_radius`` of a same-category node that was removed
   earlier in this session is taken to be that object moved: it keeps its id and the
@@ -52,7 +53,6 @@ import numpy as np
 
 from bomc_bt.graph.association import near_any
 from bomc_bt.graph.extents import NodeExtents
-from bomc_bt.graph.footprints import union
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.tentative import TentativeSightings
 
@@ -96,11 +96,13 @@ class RobustPolicy:
         pairs.sort()
         matched_nodes: set[int] = set()
         matched_obs: set[int] = set()
+        footprints: dict[int, np.ndarray | None] = {}  # matched nodes' footprints before this frame
         for _, vid, j in pairs:
             if vid in matched_nodes or j in matched_obs:
                 continue
             matched_nodes.add(vid)
             matched_obs.add(j)
+            footprints[vid] = graph.nodes[vid].footprint
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
         for vid in exp:
             if vid not in graph.nodes:  # an arrival an earlier miss in this loop folded into its moved node
@@ -125,7 +127,8 @@ class RobustPolicy:
             if not moved:
                 self.extents.grow(graph, placed[-1], o, self.gate(o))
         hidden = set(in_view or ()) - set(exp)
-        events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp))
+        events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
+                                                    footprints))
         return events
 
     def _near(self, graph: ObjectGraph, obs: Sequence[Observation]) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -143,7 +146,8 @@ class RobustPolicy:
         return out
 
     def _merge_hidden_duplicates(self, graph: ObjectGraph, pairs: list[Pair], matched: set[int], hidden: set[int],
-                                 obs: Sequence[Observation], session: int, stamp: float) -> list[Event]:
+                                 obs: Sequence[Observation], session: int, stamp: float,
+                                 footprints: dict[int, np.ndarray | None]) -> list[Event]:
         """Fold into the matched node any same-category node that the same observation also
         covers: unmatched and either hidden (in view, not expected) or lying on the floor
         area the observation's own points cover.
@@ -155,7 +159,9 @@ class RobustPolicy:
         a table whose node sits at the other. An observation that covers both settles it:
         the node seen more often keeps its id (position averaged by observations), the
         other is removed. A node that was expected but unmatched and lies elsewhere is not
-        touched: it may be a second object, and the miss count decides.
+        touched: it may be a second object, and the miss count decides. Nor are two small
+        nodes whose whole footprints lie apart (:meth:`NodeExtents.apart`): two chairs side by
+        side, which a view bleeding over both covers.
         """
         events: list[Event] = []
         best: dict[int, int] = {}
@@ -168,14 +174,15 @@ class RobustPolicy:
             covered |= {v.id for v, _ in graph.within(o.category, o.position, self.gate(o)) if v.id in hidden}
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
-                if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o):
+                if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o) \
+                        or self.extents.apart(v, other, footprints.get(vid)):
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
                 graph.relocate(keep, (keep.position * keep.observations + drop.position * drop.observations) / total)
                 graph.add_observations(keep, drop.observations)
                 graph.set_confidence(keep, max(keep.confidence, drop.confidence))
-                graph.set_footprint(keep, union(keep.footprint, drop.footprint))
+                self.extents.fold(graph, keep, drop)
                 events.append(graph.remove(drop, session, stamp, merged_into=keep.id))  # never "moved" back
                 events.append(graph.report("updated", keep, session, stamp))
                 matched.add(keep.id)
@@ -226,7 +233,7 @@ class RobustPolicy:
         previous = v.position.copy()
         graph.relocate(v, arrival.position.copy())
         if self.extents.boxes:
-            graph.set_footprint(v, arrival.footprint)
+            self.extents.adopt(graph, v, arrival)
         graph.add_observations(v, arrival.observations)
         graph.set_confidence(v, max(v.confidence, arrival.confidence))
         graph.touch(v, session, arrival.last_seen if arrival.last_seen is not None else stamp)
@@ -271,7 +278,7 @@ class RobustPolicy:
         else:
             graph.relocate(v, o.position.copy())
         if self.extents.boxes:  # where it stood before says nothing about its size here
-            graph.set_footprint(v, o.box)
+            self.extents.restart(graph, v, o)
         graph.set_confidence(v, float(o.confidence))
         graph.touch(v, session, stamp)
         return graph.report("moved", v, session, stamp, previous)
