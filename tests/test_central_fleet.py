@@ -105,7 +105,8 @@ def rendered(browser: Browser, where: str, points: list[tuple[float, float]], sh
     try:
         browser.open(server.url)
         browser.wait_for("document.querySelector('#diff').dataset.ready === '1-2' && bomcViewer.state.map.img"
-                         " && +document.querySelector('#map').dataset.draws > 0", what="the site drawn")
+                         " && +document.querySelector('#map').dataset.draws > 0 && bomcHeatmap.state.settled",
+                         what="the site drawn")
         page = browser.evaluate("""(() => ({
             sessions: Array.from(document.querySelectorAll('#sessions li.session')).map(li => li.dataset.session),
             added: Array.from(document.querySelectorAll('#diff-added li[data-id]')).map(li => +li.dataset.id),
@@ -195,6 +196,7 @@ def test_two_robots_alternating_six_passes_through_postgresql_build_one_robots_g
     assert got.nodes == expected.nodes
     assert got.node_history == expected.node_history
     assert got.progress == expected.progress
+    assert got.region_passes == expected.region_passes and expected.region_passes  # the change model travels
     assert wall_times_dropped(got.sessions) == wall_times_dropped(expected.sessions)
     assert robots == {n: "A" if n % 2 else "B" for n in range(1, SESSIONS + 1)}
     (generation,) = local_generations(alone)

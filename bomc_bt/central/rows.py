@@ -1,10 +1,10 @@
 """The object graph's rows, read from a site's SQLite store or from the central schema, and written locally.
 
-The same four tables on both sides, with the same columns (:data:`COLUMNS`): sessions,
-nodes (current state of every id), node history (append-only, ordered by ``seq``) and the
-pass's resume progress. Rows are plain tuples, compared as they are: a float read from
-SQLite and from a PostgreSQL ``double precision`` column is the same float, so equal
-tuples mean an equal graph.
+The same five tables on both sides, with the same columns (:data:`COLUMNS`): sessions,
+nodes (current state of every id), node history (append-only, ordered by ``seq``), the
+pass's resume progress and the change model's rows per pass and region. Rows are plain
+tuples, compared as they are: a float read from SQLite and from a PostgreSQL ``double
+precision`` column is the same float, so equal tuples mean an equal graph.
 
 The local side is read in ONE read transaction (one snapshot: a pass writing beside the
 sync adds whole frames after it, never half of one) and written in ONE write transaction
@@ -29,8 +29,11 @@ COLUMNS: dict[str, tuple[str, ...]] = {
     "node_history": ("seq", "id", "session", "stamp", "kind", "category", "x", "y", "z", "confidence", "px", "py",
                      "pz", "detail"),
     "progress": ("key", "value"),
+    "region_passes": ("session", "size", "i", "j", "seen", "changes", "stamp"),
 }
-ORDER = {"sessions": "number", "nodes": "id", "node_history": "seq", "progress": "key"}
+ORDER = {"sessions": "number", "nodes": "id", "node_history": "seq", "progress": "key",
+         "region_passes": "session, size, i, j"}
+REGION_TABLE_SINCE = 4  # local store version that has region_passes (the change model)
 
 
 @dataclass
@@ -41,6 +44,7 @@ class GraphRows:
     nodes: list[tuple] = field(default_factory=list)
     node_history: list[tuple] = field(default_factory=list)
     progress: list[tuple] = field(default_factory=list)
+    region_passes: list[tuple] = field(default_factory=list)
     since: int = 0  # history rows with seq <= since are not in node_history
 
     def table(self, name: str) -> list[tuple]:
@@ -58,6 +62,8 @@ def read_local(path: Path, since: int = 0) -> GraphRows:
         db.execute("BEGIN")
         rows = GraphRows(since=since)
         for table in COLUMNS:
+            if table == "region_passes" and version < REGION_TABLE_SINCE:
+                continue  # an older store: no change model yet
             where = " WHERE seq > ?" if table == "node_history" else ""
             args = (since,) if where else ()
             rows.table(table).extend(db.execute(

@@ -20,7 +20,7 @@ from typing import Any
 from bomc_bt.errors import BomcError
 
 SCHEMA = "bomc"
-VERSION = 3
+VERSION = 4
 MIGRATION_LOCK = 0x626F6D63  # pg_advisory_xact_lock key of schema changes ("bomc")
 
 _FLOOR = "building text NOT NULL, floor text NOT NULL"
@@ -65,6 +65,12 @@ CREATE TABLE bomc.sync_log (id bigserial PRIMARY KEY, {_FLOOR}, robot text NOT N
 """,
     # the local store's node_history.detail (site.db schema 3): removal evidence, operator edits
     3: "ALTER TABLE bomc.node_history ADD COLUMN IF NOT EXISTS detail text;",
+    # the local store's change model rows (site.db schema 4): what each pass looked at and found per region
+    4: f"""
+CREATE TABLE bomc.region_passes ({_GEN}, session integer NOT NULL, size double precision NOT NULL,
+    i integer NOT NULL, j integer NOT NULL, seen double precision NOT NULL, changes integer NOT NULL,
+    stamp double precision, PRIMARY KEY (building, floor, generation, session, size, i, j));
+""",
 }
 
 

@@ -35,7 +35,8 @@ from bomc_bt.central.site_files import LocalGeneration, local_files, local_gener
 from bomc_bt.errors import BomcError
 from bomc_bt.site import current_generation
 
-KEY_COLUMNS = {"sessions": ("number",), "nodes": ("id",), "progress": ("key",)}
+KEY_COLUMNS = {"sessions": ("number",), "nodes": ("id",), "progress": ("key",),
+               "region_passes": ("session", "size", "i", "j")}  # each table's leading columns
 
 
 @dataclass
@@ -110,7 +111,7 @@ def _push_graph(conn: Any, key: tuple[str, str, int], store: Path, robot: str, r
     local = read_local(store, since=head)
     central = read_central(conn, key, since=head)  # history: nothing after head; the rest whole
     check_extends(key, store, local, central, head, conn)
-    for table in ("sessions", "nodes", "progress"):
+    for table in ("sessions", "nodes", "progress", "region_passes"):
         result.add(table, _upsert_changed(conn, table, key, local.table(table), central.table(table), robot))
     if local.node_history:
         cols = ", ".join(("building", "floor", "generation", *COLUMNS["node_history"]))
@@ -143,8 +144,9 @@ def check_extends(key: tuple[str, str, int], store: Path, local: GraphRows, cent
 def _upsert_changed(conn: Any, table: str, key: tuple[str, str, int], local: list[tuple], central: list[tuple],
                     robot: str) -> int:
     """Insert or update the local rows that differ from the central ones; returns how many."""
-    have = {row[0]: tuple(row) for row in central}
-    changed = [row for row in local if have.get(row[0]) != tuple(row)]
+    k = len(KEY_COLUMNS[table])
+    have = {tuple(row[:k]): tuple(row) for row in central}
+    changed = [row for row in local if have.get(tuple(row[:k])) != tuple(row)]
     if not changed:
         return 0
     cols = COLUMNS[table]

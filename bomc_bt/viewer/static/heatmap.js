@@ -7,7 +7,8 @@
 "use strict";
 
 const bomcHeatmap = (() => {
-  const H = { data: null, on: false, requested: false, max: 0 };  // off until asked: the plain map first
+  // settled: the model's request has ended (drawn or not): a page read before that may be redrawn under it
+  const H = { data: null, on: false, requested: false, settled: false, max: 0 };  // off until asked
   const FILL = [214, 40, 30];  // red; alpha grows with the changes waiting
   const MIN_ALPHA = 0.08, MAX_ALPHA = 0.6;
 
@@ -23,7 +24,8 @@ const bomcHeatmap = (() => {
         addToggle(redraw);
         redraw();
       })
-      .catch(() => {});  // an old server without the route: no heat map
+      .catch(() => {})  // an old server without the route: no heat map
+      .finally(() => { H.settled = true; });
   }
 
   function addToggle(redraw) {
