@@ -127,3 +127,25 @@ def test_a_start_in_the_inflated_zone_never_escapes_through_a_wall():
             rows, cols = grid.world_to_cell(xs, ys)
             assert not (grid.data[rows, cols] == OCCUPIED).any(), (a, b)
     assert planner.nearest_traversable(start, 1.0, visible=True) is None
+
+
+def test_a_start_in_the_inflated_zone_never_escapes_through_a_hole_in_a_wall():
+    """The same strip, but its one-cell wall has one-cell holes, unknown (a wall seen at
+    grazing angles) or free (gaps in a map image): a sight line through a hole used to
+    make the cell behind the wall the plan's start, and the robot pushed into the wall
+    until the build was "stuck" (hospital, 20-start draw, gain starts 16 and 7)."""
+    data = np.full((cell(3.0), cell(4.0)), FREE, np.int8)
+    data[:cell(0.1), :] = OCCUPIED
+    data[cell(0.65):cell(0.7), :] = OCCUPIED
+    data[cell(0.65):cell(0.7), cell(0.5)::cell(0.5)] = UNKNOWN  # a hole every 0.5 m,
+    data[cell(0.65):cell(0.7), cell(0.75)::cell(0.5)] = FREE  # alternately unknown and free
+    grid = OccupancyGrid(data, RES, (0.0, 0.0))
+    wall_y = 0.65
+    for allow_unknown in (False, True):  # the explorer's planner and the build navigator's
+        planner = GridPlanner(grid, PlannerParams(allow_unknown=allow_unknown))
+        for x in np.arange(0.3, 3.7, 0.05):
+            start = (float(x), 0.38)
+            assert not planner.traversable(start)
+            assert planner.nearest_traversable(start, 1.0, visible=True) is None, start
+            path = planner.plan(start, (3.0, 2.0))
+            assert path is None or path[1][1] < wall_y, (start, path[:2])
