@@ -70,6 +70,7 @@ class GridPlanner:
         data[unknown & ~lethal] = -1
         self.planning_grid = OccupancyGrid(data, self.resolution, tuple(grid.origin))
         self._labels: np.ndarray | None = None
+        self._fine: np.ndarray | None = None
 
     # -- coordinates ---------------------------------------------------------------------
     def cell(self, xy) -> tuple[int, int]:
@@ -110,16 +111,37 @@ class GridPlanner:
         return None
 
     def _in_sight(self, a, b) -> bool:
-        """Whether the straight line from ``a`` to ``b`` crosses no occupied map cell.
+        """Whether the robot can drive the straight line from ``a`` to ``b``: it crosses
+        only known free map cells (the cell ``a`` lies in aside), and nowhere comes nearer
+        a wall than the robot at ``a`` is (or :attr:`PlannerParams.squeeze_radius`, if
+        less), less one map cell.
 
         A start inside the inflated zone (a strip 0.7 m wide along a one-cell wall) is
         planned from the nearest traversable cell: without this test that cell could lie
         behind the wall, and the robot drove into the wall for good (hospital, issue 16).
+        A wall seen at grazing angles is mapped with one-cell holes, unknown or free (the
+        hospital's bottom wall also has one-cell gaps in the map image itself): a line
+        through such a hole put the start behind the wall again (hospital, 20-start draw,
+        gain start 16: 150 s pushing into the wall, then `stuck`).
         """
         n = max(2, int(math.ceil(math.hypot(b[0] - a[0], b[1] - a[1]) / (0.5 * self.grid.resolution))) + 1)
         rows, cols = self.grid.world_to_cell(np.linspace(a[0], b[0], n), np.linspace(a[1], b[1], n))
         inside = self.grid.in_bounds(rows, cols)
-        return not bool((self.grid.data[rows[inside], cols[inside]] > 50).any())
+        rows, cols = rows[inside], cols[inside]
+        if len(rows) == 0:
+            return True
+        away = (rows != rows[0]) | (cols != cols[0])
+        if not (self.grid.data[rows[away], cols[away]] == 0).all():
+            return False
+        room = self._fine_clearance()[rows, cols]
+        return bool(room.min() >= min(room[0], self.params.squeeze_radius) - self.grid.resolution)
+
+    def _fine_clearance(self) -> np.ndarray:
+        """Metres from each map cell to the nearest occupied one (computed once, on demand)."""
+        if self._fine is None:
+            free = (~self.grid.occupied_mask()).astype(np.uint8)
+            self._fine = cv2.distanceTransform(free, cv2.DIST_L2, 5) * self.grid.resolution
+        return self._fine
 
     def nearest_traversable(self, xy, radius: float, visible: bool = False) -> np.ndarray | None:
         """``xy`` itself when traversable, else the nearest traversable cell centre within

@@ -127,3 +127,62 @@ def test_a_start_in_the_inflated_zone_never_escapes_through_a_wall():
             rows, cols = grid.world_to_cell(xs, ys)
             assert not (grid.data[rows, cols] == OCCUPIED).any(), (a, b)
     assert planner.nearest_traversable(start, 1.0, visible=True) is None
+
+
+def test_a_start_in_the_inflated_zone_never_escapes_through_a_hole_in_a_wall():
+    """The same strip, but its one-cell wall has one-cell holes, unknown (a wall seen at
+    grazing angles) or free (gaps in a map image): a sight line through a hole used to
+    make the cell behind the wall the plan's start, and the robot pushed into the wall
+    until the build was "stuck" (hospital, 20-start draw, gain starts 16 and 7)."""
+    data = np.full((cell(3.0), cell(4.0)), FREE, np.int8)
+    data[:cell(0.1), :] = OCCUPIED
+    data[cell(0.65):cell(0.7), :] = OCCUPIED
+    data[cell(0.65):cell(0.7), cell(0.5)::cell(0.5)] = UNKNOWN  # a hole every 0.5 m,
+    data[cell(0.65):cell(0.7), cell(0.75)::cell(0.5)] = FREE  # alternately unknown and free
+    grid = OccupancyGrid(data, RES, (0.0, 0.0))
+    wall_y = 0.65
+    for allow_unknown in (False, True):  # the explorer's planner and the build navigator's
+        planner = GridPlanner(grid, PlannerParams(allow_unknown=allow_unknown))
+        for x in np.arange(0.3, 3.7, 0.05):
+            start = (float(x), 0.38)
+            assert not planner.traversable(start)
+            assert planner.nearest_traversable(start, 1.0, visible=True) is None, start
+            path = planner.plan(start, (3.0, 2.0))
+            assert path is None or path[1][1] < wall_y, (start, path[:2])
+
+
+
+def test_a_base_rocking_against_an_unmapped_obstacle_is_blocked_not_driving_for_ever():
+    """Something the map does not show stops the base 1 m along a corridor, and a noise
+    speck on the live map comes and goes on the straight path, so every replan flips
+    between the straight path and one around the speck. Each replan reset the best
+    remaining length, so backing up and driving back to the obstacle (on either path)
+    counted as progress: the goal never became BLOCKED, and the build pushed for 250 s
+    until its time limit (hospital, 20-start draw, gain start 16)."""
+    from bomc_bt.sim.navigation import Navigator
+    from bomc_bt.sim.params import MotionParams
+
+    data = np.full((cell(2.0), cell(6.0)), FREE, np.int8)
+    data[:cell(0.1), :] = OCCUPIED
+    data[-cell(0.1):, :] = OCCUPIED
+    speck = data.copy()
+    speck[cell(1.0), cell(3.0)] = OCCUPIED
+    planners = [GridPlanner(OccupancyGrid(d, RES, (0.0, 0.0)), PlannerParams()) for d in (data, speck)]
+    motion = MotionParams()
+    nav = Navigator(motion, 0.3, np.random.default_rng(0))
+    pose, now, dt, hidden_x = Pose2D(1.0, 1.0, 0.0), 0.0, 0.1, 2.0
+
+    def live(*_):
+        return planners[int(now // 2.0) % 2]  # the speck is on the map every other 2 s
+
+    handle = nav.start(Pose2D(5.0, 1.0, 0.0), pose, now, live, live)
+    stuck = False
+    while handle.status().value == "running" and now < 60.0:
+        now += dt
+        v, w = nav.update(pose, now, live, lambda path, skip: live().path_is_clear(path, skip), stuck)
+        yaw = pose.yaw + w * dt
+        x = pose.x + v * math.cos(yaw) * dt
+        stuck = x > hidden_x
+        pose = Pose2D(min(x, hidden_x), pose.y + v * math.sin(yaw) * dt, yaw)
+    assert handle.status().value == "blocked", (handle.status(), now)
+    assert now < 2 * motion.progress_timeout

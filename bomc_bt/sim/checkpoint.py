@@ -71,7 +71,8 @@ def _navigation_state(nav) -> dict[str, Any] | None:
             "best": finite(nav._best), "last_progress": finite(nav._last_progress),
             "next_check": finite(nav._next_check), "fail_at": finite(nav._fail_at),
             "stuck_since": finite(nav._stuck_since), "backup_until": finite(nav._backup_until),
-            "at_position": bool(nav._at_position)}
+            "at_position": bool(nav._at_position),
+            "progress_marks": nav._marks.tolist()}
 
 
 def _restore_navigation(robot, saved: dict[str, Any] | None) -> None:
@@ -91,6 +92,8 @@ def _restore_navigation(robot, saved: dict[str, Any] | None) -> None:
     nav._stuck_since = None if saved["stuck_since"] is None else float(saved["stuck_since"])
     nav._backup_until = value("backup_until", -np.inf)
     nav._at_position = bool(saved["at_position"])
+    marks = saved.get("progress_marks") or []  # absent in checkpoints saved before they were kept
+    nav._marks = np.asarray(marks, dtype=float).reshape(-1, 3)
     robot._resumed_navigation = nav.handle
 
 

@@ -67,6 +67,7 @@ class Navigator:
         self._cum: np.ndarray | None = None
         self._best = math.inf
         self._last_progress = 0.0
+        self._marks = np.zeros((0, 3))  # (time, x, y) where progress was counted lately
         self._next_check = 0.0
         self._fail_at = math.inf
         self._stuck_since: float | None = None
@@ -86,6 +87,7 @@ class Navigator:
         self._at_position = False
         self._best = math.inf
         self._last_progress = now
+        self._marks = np.array([[now, pose.x, pose.y]])
         self._fail_at = math.inf
         current = planner(pose.xy, goal.xy)
         if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
@@ -150,9 +152,7 @@ class Navigator:
                 return result
             self._next_check = now + (p.blocked_replan_period if stuck or self.path is None
                                       else p.replan_period)
-        remaining = self._remaining(pose)
-        if remaining < self._best - p.progress_step:
-            self._best = remaining
+        if self._made_progress(pose, now):
             self._last_progress = now
         if now - self._last_progress >= p.progress_timeout:
             return self._end(Status.BLOCKED, f"no progress for {p.progress_timeout:g} s")
@@ -164,6 +164,31 @@ class Navigator:
         if self.path is None:
             return 0.0, 0.0
         return self._follow(pose, goal)
+
+    def _made_progress(self, pose: Pose2D, now: float) -> bool:
+        """Whether the remaining path shrank by ``progress_step`` *and* the robot stands
+        ``progress_step`` from everywhere progress was counted in the last ``progress_timeout``.
+
+        Each replan resets the best remaining length to the new path's. A robot stopped by
+        something the map does not show, whose plan flips between two paths (a wall mapped
+        with flickering holes, noise on the live map), backed up, drove back to the same
+        spot or to the same spot on the other path, and "progressed" at every flip: its
+        goal never became BLOCKED and it pushed for 250 s until the time limit (hospital,
+        20-start draw, gain start 16). Progress is reaching new ground, as move_base's
+        oscillation check has it; ground from more than ``progress_timeout`` ago counts again
+        (a robot backing out of a dead end retraces its way).
+        """
+        p = self.params
+        remaining = self._remaining(pose)
+        if remaining >= self._best - p.progress_step:
+            return False
+        marks = self._marks[self._marks[:, 0] > now - p.progress_timeout]
+        if len(marks) and np.hypot(marks[:, 1] - pose.x, marks[:, 2] - pose.y).min() < p.progress_step:
+            self._marks = marks
+            return False
+        self._best = remaining
+        self._marks = np.vstack([marks, [now, pose.x, pose.y]])
+        return True
 
     def _recovery(self, now: float, stuck: bool) -> tuple[float, float] | None:
         """move_base's back-up recovery: wedged against something for a while, reverse a little.
