@@ -127,9 +127,7 @@ def _leg(planner: GridPlanner, a: np.ndarray, b: np.ndarray) -> np.ndarray | Non
     rhi, chi = grid.world_to_cell(hi[0], hi[1])
     rlo, clo = max(int(rlo), 0), max(int(clo), 0)
     rhi, chi = min(int(rhi) + 1, grid.height), min(int(chi) + 1, grid.width)
-    x0, y0 = grid.origin[0] + clo * grid.resolution, grid.origin[1] + rlo * grid.resolution
-    window = OccupancyGrid(grid.data[rlo:rhi, clo:chi], grid.resolution, (x0, y0))
-    path = GridPlanner(window, planner.params).plan(a, b)
+    path = GridPlanner(grid.crop(rlo, rhi, clo, chi), planner.params).plan(a, b)
     return path if path is not None else planner.plan(a, b)
 
 

@@ -44,12 +44,11 @@ import base64
 import zlib
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import Event
-from bomc_bt.grid import OccupancyGrid
+from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.pass_resume import coverage_key, looked_key, unpack_mask
 
 FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail
@@ -102,7 +101,7 @@ def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float) ->
         if mask is None:
             return None
         union |= mask
-    return SeenBefore(grid, widen(union, margin / grid.resolution))
+    return SeenBefore(grid, inflate_mask(union, margin / grid.resolution))
 
 
 def saved_coverage(store, session: int, shape: tuple[int, int], key: str | None = None) -> np.ndarray | None:
@@ -121,12 +120,3 @@ def saved_coverage(store, session: int, shape: tuple[int, int], key: str | None 
         raise BomcError(f"corrupt site store: the saved coverage of session {session} is not a mask of this "
                         f"map ({shape[1]} x {shape[0]} cells)", store.path, f"progress.{key}")
     return unpack_mask(text, shape).astype(bool)
-
-
-def widen(mask: np.ndarray, cells: float) -> np.ndarray:
-    """``mask`` grown by a disc of ``cells`` radius (0: as it is)."""
-    radius = int(np.ceil(cells))
-    if radius <= 0 or not mask.any():
-        return mask.copy()
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
-    return cv2.dilate(mask.astype(np.uint8), disc).astype(bool)

@@ -53,6 +53,12 @@ class OccupancyGrid:
     def copy(self) -> OccupancyGrid:
         return OccupancyGrid(self.data.copy(), self.resolution, tuple(self.origin))
 
+    def crop(self, r0: int, r1: int, c0: int, c1: int) -> OccupancyGrid:
+        """Rows ``r0:r1`` and columns ``c0:c1`` as a grid of their own, in the same map frame
+        (a view of the cells, not a copy: planning in a window round a leg or a goal)."""
+        res = self.resolution
+        return OccupancyGrid(self.data[r0:r1, c0:c1], res, (self.origin[0] + c0 * res, self.origin[1] + r0 * res))
+
     # -- coordinates -----------------------------------------------------------------
     def world_to_cell(self, x, y):
         """Map-frame metres to (row, col) integer indices (vectorised; may be out of bounds)."""

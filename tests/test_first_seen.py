@@ -12,9 +12,9 @@ import pytest
 
 from bomc_bt.change_evaluation import reported_changes, score_changes, true_changes
 from bomc_bt.errors import BomcError
-from bomc_bt.first_seen import FIRST_SEEN, SeenBefore, load_seen_before, saved_coverage, widen
+from bomc_bt.first_seen import FIRST_SEEN, SeenBefore, load_seen_before, saved_coverage
 from bomc_bt.graph import Event
-from bomc_bt.grid import OccupancyGrid
+from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.net_changes import net_changes, summarize
 from bomc_bt.pass_resume import coverage_key, looked_key, pack_mask
 from bomc_bt.store import SiteStore
@@ -53,7 +53,7 @@ def stored_site(path: Path, masks: dict[int, np.ndarray | None]) -> SiteStore:
 # ---------------------------------------------------------------- marking and netting
 def test_an_addition_beyond_the_floor_earlier_passes_saw_is_first_seen_within_the_margin_added():
     grid = grid_10m()
-    seen = SeenBefore(grid, widen(left_half(grid).astype(bool), 0.3 / grid.resolution))
+    seen = SeenBefore(grid, inflate_mask(left_half(grid).astype(bool), 0.3 / grid.resolution))
     events = [added(1, 2.0), added(2, 5.2), added(3, 8.0), added(4, 50.0),
               Event("moved", 5, "chair", np.array([9.0, 5.0, 0.4]), 2, 20.0, np.array([1.0, 5.0, 0.4]))]
     assert seen.mark(events) == 2

@@ -21,14 +21,14 @@ from typing import Any
 import numpy as np
 
 from bomc_bt.geometry import Pose2D
-from bomc_bt.pass_resume import pack_mask, unpack_mask
 from bomc_bt.sim.navigation import NavHandle
 
 
 def robot_state(robot) -> dict[str, Any]:
     """``robot`` (a :class:`~bomc_bt.sim.robot.SimRobot`) at this step, JSON-able."""
     t = robot._true
-    obstacles = None if robot._obstacles is None else _obstacle_state(robot._obstacles)
+    layer = robot._obstacles
+    obstacles = None if layer is None else {"mask": layer.packed(), "version": int(layer.version)}
     return {
         "kind": "sim",
         "session": robot.session,
@@ -48,16 +48,6 @@ def robot_state(robot) -> dict[str, Any]:
         "stuck": bool(robot._stuck),
         "navigation": _navigation_state(robot.navigator),
     }
-
-
-def _obstacle_state(layer) -> dict[str, Any]:
-    """The obstacle layer, packed once per version: a pass commits with every frame, and
-    packing an Environment-A-size mask costs milliseconds while the layer rarely changes."""
-    cached = getattr(layer, "_packed", None)
-    if cached is None or cached[0] != layer.version:
-        cached = (layer.version, pack_mask(layer.mask))
-        layer._packed = cached
-    return {"mask": cached[1], "version": int(layer.version)}
 
 
 def _navigation_state(nav) -> dict[str, Any] | None:
@@ -125,9 +115,7 @@ def restore_robot(robot, state: dict[str, Any]) -> None:
     robot.people.headings = np.asarray(people["headings"], dtype=float).reshape(-1, 2)
     saved = state.get("obstacles")
     if saved is not None and robot._obstacles is not None:
-        robot._obstacles.mask[:] = unpack_mask(saved["mask"], robot._obstacles.mask.shape).astype(bool)
-        robot._obstacles.version = int(saved["version"])
-        robot._obstacles._packed = None  # the mask was replaced under the same version number
+        robot._obstacles.load(saved["mask"], saved["version"])
         robot.planners.use_map(robot._map, robot._obstacles)
     for name, value in state["rng"].items():
         if name in _STREAMS:

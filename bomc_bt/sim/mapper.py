@@ -24,6 +24,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from bomc_bt.pass_resume import pack_mask, unpack_mask
 from bomc_bt.robot import LaserScan
 from bomc_bt.sim.params import MapperParams, ObstacleLayerParams
 
@@ -148,6 +149,7 @@ class ObstacleLayer:
         self.geometry = OccupancyGrid.unknown(grid.width, grid.height, grid.resolution, grid.origin)
         self.mask = np.zeros(grid.data.shape, dtype=bool)
         self.version = 0
+        self._packed: tuple[int, str] | None = None  # (version, packed mask) of the last checkpoint
 
     def update(self, scan: LaserScan, pose: Pose2D) -> None:
         p = self.params
@@ -165,3 +167,17 @@ class ObstacleLayer:
     def clear(self) -> None:
         self.mask[:] = False
         self.version += 1
+
+    def packed(self) -> str:
+        """The mask as a checkpoint saves it, packed once per version: a pass commits with
+        every frame, and packing an Environment-A-size mask costs milliseconds while the
+        layer rarely changes between two frames."""
+        if self._packed is None or self._packed[0] != self.version:
+            self._packed = (self.version, pack_mask(self.mask))
+        return self._packed[1]
+
+    def load(self, packed: str, version: int) -> None:
+        """Put back a checkpoint's mask (:meth:`packed`) and version."""
+        self.mask[:] = unpack_mask(packed, self.mask.shape).astype(bool)
+        self.version = int(version)
+        self._packed = (self.version, packed)

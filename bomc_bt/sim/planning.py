@@ -108,10 +108,9 @@ class SimPlanners:
     def _window_planner(self, bounds: tuple[int, int, int, int]) -> GridPlanner:
         r0, r1, c0, c1 = bounds
         grid = self.map
-        res = grid.resolution
-        window = OccupancyGrid(grid.data[r0:r1, c0:c1], res, (grid.origin[0] + c0 * res, grid.origin[1] + r0 * res))
+        window = grid.crop(r0, r1, c0, c1)
         extra = self.obstacles.mask[r0:r1, c0:c1].copy()
-        band = max(1, int(np.ceil(self.params.inflation_radius / res)))
+        band = max(1, int(np.ceil(self.params.inflation_radius / grid.resolution)))
         sides = (r0 > 0, r1 < grid.height, c0 > 0, c1 < grid.width)  # the map's own edge needs no band
         if sides[0]:
             extra[:band] = True
