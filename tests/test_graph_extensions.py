@@ -193,3 +193,19 @@ def test_chairs_side_by_side_at_a_table_stay_two_nodes():
     assert len(chairs) == 2
     assert chairs[0].position[0] < -0.2 and chairs[1].position[0] > 0.2
     assert all(v.footprint[2] - v.footprint[0] < 0.7 for v in chairs)
+
+
+def test_a_frame_that_confirms_an_objects_absence_and_expects_its_new_place_too_does_not_fail():
+    """The old chair's last miss folds the chair seen this session 2 m away into it (a
+    move); that arrival was also expected in the same frame and is gone by its turn."""
+    g = ObjectGraph(AssociationParams(confirm_misses=1, confirm_detections=1), [node(0, "chair", 0.0, 0.0, seen=20)])
+    added = g.associate([obs("chair", 2.0, 0.0)], [], 2, 0.0)
+    assert [e.kind for e in added] == ["added"]
+    arrival = added[0].node_id
+    events = []
+    for k in range(1, 30):  # neither seen, both expected, the old one first
+        events += g.associate([], [0, arrival], 2, float(k))
+        if arrival not in g.nodes:
+            break
+    assert set(g.nodes) == {0} and np.allclose(g.nodes[0].position[:2], [2.0, 0.0])
+    assert "moved" in [e.kind for e in events if e.node_id == 0]
