@@ -315,6 +315,8 @@ class BudgetParams:
     prior_rate: float = 0.3  # [count] changes per pass a region is assumed to have before any history
     prior_weight: float = 1.0  # [count] passes' worth of weight the prior rate keeps against history
     max_wait: int = 20  # [count] passes since last seen beyond which a region's waiting changes stop growing
+    object_reach: float = 0.5  # [m] a look counts for an object when the floor it saw comes this near it (a
+                               # region with objects is looked at by the share of its objects, not of its floor)
 
     def __post_init__(self) -> None:
         if self.strategy not in ("expected_changes", "uniform", "cut"):
@@ -329,6 +331,8 @@ class BudgetParams:
             raise ValueError("need 1 <= max_stops <= 1000 and 0 <= view_range <= 100")
         if not (self.prior_rate > 0 and self.prior_weight > 0 and self.max_wait >= 1):
             raise ValueError("need prior_rate > 0, prior_weight > 0 and max_wait >= 1")
+        if not 0 < self.object_reach <= 10:
+            raise ValueError("need 0 < object_reach <= 10")
 
 
 @dataclass

@@ -71,7 +71,7 @@ def pass_regions(store, grid: OccupancyGrid, config: Config, seen: np.ndarray | 
     model = load_model(store, grid, config, before=session)
     seen = np.zeros(grid.data.shape, dtype=bool) if seen is None else seen
     objects = np.array([n.position[:2] for n in store.graph_after(session - 1)], dtype=float).reshape(-1, 2)
-    rows = region_rows(model.regions, seen, changes, session, stamp, model, objects)
+    rows = region_rows(model.regions, seen, changes, session, stamp, model, objects, config.budget.object_reach)
     info = {k: v for k, v in (budget.to_json() if budget else {}).items() if k != "home_m"}
     skipped = skipped_regions(model, rows, session)
     return rows, {**info, "regions": len(rows), "skipped_regions": skipped}
