@@ -315,8 +315,7 @@ class BudgetParams:
     prior_rate: float = 0.3  # [count] changes per pass a region is assumed to have before any history
     prior_weight: float = 1.0  # [count] passes' worth of weight the prior rate keeps against history
     max_wait: int = 20  # [count] passes since last seen beyond which a region's waiting changes stop growing
-    object_reach: float = 0.5  # [m] a look counts for an object when the floor it saw comes this near it (a
-                               # region with objects is looked at by the share of its objects, not of its floor)
+    object_reach: float = 0.5  # [m] a look counts for an object when the floor it saw comes this near it
 
     def __post_init__(self) -> None:
         if self.strategy not in ("expected_changes", "uniform", "cut"):
