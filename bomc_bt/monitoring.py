@@ -23,6 +23,7 @@ from bomc_bt.grid import OccupancyGrid
 from bomc_bt.pass_resume import frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
+from bomc_bt.perception.looked import looked_polygon
 from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon
 from bomc_bt.robot import RGBDFrame
 from bomc_bt.traversal import TraversalPlan
@@ -257,16 +258,6 @@ class Coverage:
         return sorted(regions, key=lambda r: -r["area_m2"])
 
 
-def within_range(polygon: np.ndarray, camera: np.ndarray, reach: float) -> np.ndarray:
-    """The view fan ``polygon`` (vertices seen from ``camera``) cut back to ``reach`` metres:
-    each vertex farther away is pulled in along its ray."""
-    poly = np.asarray(polygon, dtype=float).reshape(-1, 2)
-    offset = poly - np.asarray(camera, dtype=float).reshape(1, 2)
-    distance = np.hypot(offset[:, 0], offset[:, 1])
-    scale = np.minimum(1.0, reach / np.maximum(distance, 1e-9))
-    return poly - offset + offset * scale[:, None]
-
-
 @dataclass(frozen=True)
 class FrameSeen:
     """What the last frame showed: the pass's timeline records it (:mod:`bomc_bt.timeline`)."""
@@ -333,9 +324,10 @@ seen before it is written. With a store, every frame
         self.coverage.add(polygon)
         if polygon is not None and len(polygon) >= 3:
             self.fov_since.append(np.asarray(polygon, dtype=float).tolist())
-            near = within_range(polygon, frame.T_map_camera[:2, 3], self.params.expect_range)
-            self.looked.add(near)
-            self.looked_since.append(near.tolist())
+            near = looked_polygon(frame, self.params, self.params.expect_range)
+            if len(near) >= 3:
+                self.looked.add(near)
+                self.looked_since.append(near.tolist())
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
         expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates
         weights = miss_weights(frame, expected, self.params) if self.occlusion_check else None

@@ -197,7 +197,8 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
 
 # -- what the frame observes ---------------------------------------------------------------
 def fov_polygon(frame: RGBDFrame, params: ProjectionParams | None = None) -> np.ndarray:
-    """(K, 2) counter-clockwise map-frame polygon of the floor area the frame observes.
+    """(K, 2) counter-clockwise map-frame polygon of the floor area the frame observes,
+    vertex 0 the camera (:class:`bomc_bt.monitoring.Coverage` cuts its rays from there).
 
     The paper's "approximate FoV polygon from the limits of the depth point cloud": for
     ``fov_columns`` image columns, the farthest valid depth pixel (capped at ``max_depth``
@@ -226,8 +227,8 @@ def fov_polygon(frame: RGBDFrame, params: ProjectionParams | None = None) -> np.
     T = frame.T_map_camera
     xy = (cam @ T[:3, :3].T + T[:3, 3])[:, :2]
     polygon = np.vstack([T[:2, 3], xy])
-    if _signed_area(polygon) < 0.0:
-        polygon = polygon[::-1]
+    if _signed_area(polygon) < 0.0:  # counter-clockwise, the camera staying vertex 0
+        polygon = np.vstack([T[:2, 3], xy[::-1]])
     return polygon
 
 
