@@ -274,12 +274,14 @@ def _best_move(d: np.ndarray, route: list[int], i: int, size: int, first: int, s
     q = route[i + size] if i + size < len(route) else -1
     saved = (d[p, s0] if p >= 0 else 0.0) + (d[s1, q] if q >= 0 else 0.0) - (d[p, q] if p >= 0 and q >= 0 else 0.0)
     rest = np.asarray(route[:i] + route[i + size:], dtype=np.int64)
-    lo, hi = max(first - 1, 0), stop - size  # insert between rest[k] and rest[k + 1], lo <= k < hi
-    if hi <= lo:
-        return None
+    lo, hi = max(first - 1, 0), min(stop - size, len(rest) - 1)  # between rest[k] and rest[k + 1], lo <= k < hi
     a, b = rest[lo:hi], rest[lo + 1:hi + 1]
     forward = d[a, s0] + d[s1, b] - d[a, b]
     backward = d[a, s1] + d[s0, b] - d[a, b]
+    if stop == len(route):  # an open end: the run may also go last
+        forward, backward = np.append(forward, d[rest[-1], s0]), np.append(backward, d[rest[-1], s1])
+    if len(forward) == 0:
+        return None
     cost = np.minimum(forward, backward)
     k = int(np.argmin(cost))
     if saved - cost[k] <= 1e-9:
