@@ -19,11 +19,18 @@ where an object can be, so this plan starts from the saved map and the camera in
    the cost being ``stop_cost`` plus the straight-line distance to the nearest viewpoint
    already chosen (or the dock), until none adds a ``min_gain``-wide square. A room seen through its door
    from the corridor gets no viewpoint inside: the one in the corridor sees it for nothing.
-5. Tour: nearest neighbour from the dock, then 2-opt, over grid path lengths
-   (:mod:`bomc_bt.path_matrix`), from and back to the dock (``closed_tour``).
+5. Tour: nearest neighbour from the dock, then 2-opt, Or-opt (moving runs of up to three
+   stops) and 2-opt again, over grid path lengths (:mod:`bomc_bt.path_matrix`), from and
+   back to the dock (``closed_tour``).
 6. With ``drive_by``: the floor the camera sees while driving that tour (facing ahead) is
    counted as seen and steps 4-5 run once more, dropping stops that only looked along
-   corridors. The new tour's legs differ a little; what they miss, Cover Gaps finds.
+   corridors.
+7. With ``drop_redundant`` (:mod:`bomc_bt.coverage_prune`): the new tour's legs differ
+   from the ones credited, so what they see is computed again, and each stop whose floor
+   those legs and the other stops see is dropped (most costly detour first); each kept
+   stop faces what it sees first. On a 93 x 90 m floor this drops about a sixth of the
+   stops and a tenth of the headings, and the floor left for Cover Gaps halves. Without
+   it, what the new legs miss, Cover Gaps finds.
 
 The visibility runs on the target lattice, not the 0.05 m map, which keeps a 93 x 90 m
 floor to seconds.
