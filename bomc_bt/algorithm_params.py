@@ -261,9 +261,8 @@ class TraversalParams:
     shadow: float = 0.5
     hfov_deg: float = 50.0  # [deg] coverage plan: field of view of one heading (the camera's, less a margin)
     max_headings: int = 4  # [count] coverage plan: headings per viewpoint at most
-    # [m] coverage plan: what one more stop costs, in metres of driving (slowing down,
-    # turning through its headings, dwelling); greedy cover weighs newly seen floor against
-    # this plus the straight-line distance to the nearest viewpoint already chosen
+    # [m] coverage plan: what one more stop costs, in metres of driving (slowing down, turning, dwelling);
+    # greedy cover weighs newly seen floor against this plus the straight-line distance to the nearest stop
     stop_cost: float = 4.0
     min_gain: float = 0.5  # [m] coverage plan: a stop or heading newly sees at least this squared (a chair)
     path_resolution: float = 0.2  # [m] coverage plan: grid cell of the path-length matrix (pooled planner cells)
@@ -271,6 +270,7 @@ class TraversalParams:
     # needs no stop; the cover is chosen again with it seen
     drive_by: bool = True
     drive_by_step: float = 0.5  # [m] coverage plan: spacing of the views credited along the driven path
+    drop_redundant: bool = True  # [bool] drive_by: drop stops whose floor the final tour's legs and other stops see
     closed_tour: bool = True  # [bool] coverage plan: order the tour from and back to the dock (else an open path)
 
     def __post_init__(self) -> None:

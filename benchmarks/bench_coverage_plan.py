@@ -1,0 +1,125 @@
+"""The monitor pass's coverage plan, offline: how many stops and headings, how far, how much floor.
+
+Plans ``traversal.plan: coverage`` (bomc_bt/coverage_plan.py) from the dock on each floor's
+map -- generated offices (``bomc world office``, ground-truth map, the world's start) and
+any saved sites given (their map and the first pose of their trajectory) -- without
+driving, and prints one row per floor: stops, headings (waypoints), the tour's path
+length (the planner's legs, dock to the last stop, as the robot would drive them), the
+floor the plan's model of sight sees (stops all around, legs facing ahead, measured on the
+final tour), and the CPU seconds planning took. ``--set`` changes traversal parameters,
+e.g. to compare with the stops no longer dropped:
+
+    python benchmarks/bench_coverage_plan.py --office 93x90:41 --office 36x28:7
+    python benchmarks/bench_coverage_plan.py --office 93x90:41 --set drop_redundant=false
+    python benchmarks/bench_coverage_plan.py --site /path/to/site --shared office-s --shared lab-b
+
+A real pass also sees floor while turning and drives smoother legs; Cover Gaps and the
+refresh tour come on top (``bomc monitor`` reports the whole pass).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from bomc_bt.config import load_config
+from bomc_bt.coverage_plan import _leg, plan_coverage
+from bomc_bt.geometry import Pose2D
+from bomc_bt.grid import load_map
+from bomc_bt.planner import GridPlanner
+from bomc_bt.sight import Sight, along_paths
+from bomc_bt.viewpoints import floor_mask
+
+
+def seen_share(grid, start: Pose2D, stops: list, params, planner_params, view_range: float) -> float:
+    """Share of the floor some stop (all around) or leg (facing ahead) of the tour sees."""
+    k = max(1, int(round(params.target_step / grid.resolution)))
+    floor = floor_mask(grid, params.shadow)[::k, ::k]
+    sight = Sight(grid, floor, k, view_range, params.min_range, params.shadow)
+    planner = GridPlanner(grid, planner_params)
+    nodes = [np.asarray(start.xy, float)] + [np.asarray(p, float) for p in stops]
+    paths = [_leg(planner, a, b) for a, b in zip(nodes[:-1], nodes[1:], strict=True)]
+    seen = np.zeros(floor.size, dtype=bool)
+    seen[along_paths(sight, paths, params.drive_by_step, math.radians(params.hfov_deg))] = True
+    if stops:
+        pts = np.asarray(stops, float)
+        rows, cols = grid.world_to_cell(pts[:, 0], pts[:, 1])
+        places = np.stack([np.round(rows / k), np.round(cols / k)], axis=1).astype(np.int64)
+        for view in sight.visible(places):
+            seen[view] = True
+    return float(seen.sum() / max(floor.sum(), 1))
+
+
+def leg_length(grid, start: Pose2D, stops: list, planner_params) -> float:
+    planner = GridPlanner(grid, planner_params)
+    nodes = [np.asarray(start.xy, float)] + [np.asarray(p, float) for p in stops]
+    total = 0.0
+    for a, b in zip(nodes[:-1], nodes[1:], strict=True):
+        path = _leg(planner, a, b)
+        path = np.array([a, b]) if path is None else np.asarray(path)
+        total += float(np.hypot(*np.diff(path, axis=0).T).sum())
+    return total
+
+
+def floors(args, tmp: Path) -> list[tuple[str, Path, Pose2D]]:
+    out = []
+    for spec in args.office:
+        size, seed = spec.split(":")
+        world = tmp / f"office-{size}-{seed}.yaml"
+        subprocess.run([sys.executable, "-m", "bomc_bt.cli", "world", "office", "--out", str(world), "--size", size,
+                        "--seed", seed, "--force"], check=True, capture_output=True)
+        data = yaml.safe_load(world.read_text())
+        out.append((f"office {size} s{seed}", tmp / data["map"], Pose2D(*data["start"][:2], 0.0)))
+    shared = Path(os.environ.get("BOMC_SHARED", Path(__file__).resolve().parents[2] / "shared")) / "worlds"
+    for name in args.shared:
+        data = yaml.safe_load((shared / f"{name}.yaml").read_text())
+        out.append((name, shared / data["map"], Pose2D(*data["start"][:2], 0.0)))
+    for site in args.site:
+        with open(Path(site) / "trajectory.csv") as f:
+            first = list(csv.reader(f))[1]
+        out.append((Path(site).name, Path(site) / "map.yaml", Pose2D(float(first[1]), float(first[2]), 0.0)))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--office", action="append", default=[], metavar="WxH:SEED", help="a generated office floor")
+    ap.add_argument("--shared", action="append", default=[], metavar="NAME", help="a shared world (office-s, lab-b)")
+    ap.add_argument("--site", action="append", default=[], metavar="DIR", help="a saved site's folder")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a traversal parameter")
+    args = ap.parse_args(argv)
+    config = load_config([])
+    changes = {}
+    for item in args.set:
+        key, value = item.split("=", 1)
+        current = getattr(config.traversal, key)
+        changes[key] = value.lower() in ("1", "true", "yes") if isinstance(current, bool) else type(current)(value)
+    params = dataclasses.replace(config.traversal, **changes)
+    reach = config.projection.expect_range
+    print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'plan cpu s':>10s}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, map_yaml, start in floors(args, Path(tmp)):
+            grid = load_map(map_yaml)
+            began = time.process_time()
+            plan = plan_coverage(grid, start, reach, params, config.sim.planner)
+            cpu = time.process_time() - began
+            km = leg_length(grid, start, plan.viewpoints, config.sim.planner) / 1000
+            seen = seen_share(grid, start, plan.viewpoints, params, config.sim.planner, reach)
+            stops, headings = len(plan.viewpoints), len(plan.plan.waypoints)
+            print(f"{name:18s} {stops:6d} {headings:8d} {km:8.3f} {seen:10.3f} {cpu:10.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
