@@ -93,6 +93,7 @@ class Explorer:
         self._streak_backouts = 0
         self._backout_due = False
         self._last_anchor: tuple[float, float] | None = None
+        self._yaw: float | None = None
         self.frontiers: list[Frontier] = []
         self.unreachable: list[Frontier] = []
         self.area = AreaWatch(params.no_progress_time, params.min_progress_area, start_time)
@@ -119,8 +120,11 @@ class Explorer:
                                       f"{self.params.no_progress_time:.0f} s")
         return self.status != EXPLORING
 
-    def next_goal(self, grid: OccupancyGrid, robot_xy: tuple[float, float], now: float) -> Goal | None:
-        """The next frontier (or back-out point) to drive to, or None with :attr:`status` saying why not."""
+    def next_goal(self, grid: OccupancyGrid, robot_xy: tuple[float, float], now: float,
+                  robot_yaw: float | None = None) -> Goal | None:
+        """The next frontier (or back-out point) to drive to, or None with :attr:`status`
+        saying why not. ``robot_yaw`` (rad), when known, lets the gain explorer count the
+        turn on the spot a goal behind the robot costs."""
         self.observe(robot_xy, now, grid.free_area())
         if self.limit_reached(now):
             return None
@@ -136,6 +140,7 @@ class Explorer:
         # A frontier whose best target is where the robot already stands (the blind sector
         # behind a 220-degree lidar) is mapped by the turn towards any other goal: _choose
         # skips those.
+        self._yaw = robot_yaw
         choice, best = self._choose(grid, robot_xy, reach, self._candidates(grid, robot_xy, reach))
         self.last_choice = choice
         window = choice.window
@@ -152,9 +157,11 @@ class Explorer:
     def _choose(self, grid: OccupancyGrid, robot_xy: tuple[float, float], reach: Reachability | None,
                 candidates: list[Candidate]) -> tuple[Choice, Candidate | None]:
         """The explorer's pick among ``candidates`` (those far enough from the robot)."""
-        far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance]
+        far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance
+               and not self.blacklist.contains(c.goal) and not self.blacklist.contains(c.anchor)]
         if self.params.explorer == "gain":
-            return choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist, self._last_anchor)
+            return choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist, self._last_anchor,
+                                  self._yaw)
         choice = choose_frontier([c.frontier for c in far], robot_xy, self.params, self.blacklist)
         return choice, next((c for c in far if c.frontier is choice.frontier), None)
 
@@ -202,9 +209,10 @@ class Explorer:
         reachable, self.unreachable = reach.split(found)
         self.frontiers = [f for f, _ in reachable]
         standoffs = Standoffs(grid, reach, self.clearance, self.params.max_standoff)
+        looked = np.asarray(self.blacklist.looked_points).reshape(-1, 2)
         out = []
         for f, ok in reachable:
-            safe = standoffs.goal(f)
+            safe = standoffs.goal(f, looked, self.params.hysteresis_radius)  # that radius: "the same spot"
             out.append(Candidate(f, *safe) if safe is not None
                        else _plain(f, frontier_target(grid, f, distance, self.clearance, ok)))
         return out
@@ -287,9 +295,13 @@ class Explorer:
         return out
 
     def _blacklist(self, goal: Goal, grid: OccupancyGrid | None, robot_xy, permanent: bool = False) -> None:
-        # The target and the frontier's centroid: the blacklist matches frontiers by their
-        # nearest cell or centroid, and a target may lie away from both on a long frontier.
-        self.blacklist.add(goal.xy, goal.frontier.centroid, grid=grid, robot_xy=robot_xy, permanent=permanent)
+        # A failed goal: the target and the frontier's centroid (the blacklist matches
+        # frontiers by their nearest cell or centroid, and a target may lie away from both on
+        # a long frontier). A goal reached but still open: the target and the frontier cell
+        # it looked at, struck off as goals only (see .blacklist); one such goal struck a whole
+        # shadow edge off for good and a warehouse build ended "done" at 84 % (issue 16, 7.6).
+        other = goal.looks_at if permanent else goal.frontier.centroid
+        self.blacklist.add(goal.xy, other, grid=grid, robot_xy=robot_xy, permanent=permanent, looked=permanent)
 
     def _finish(self, status: str, reason: str) -> None:
         self.status = status
