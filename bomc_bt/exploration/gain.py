@@ -144,8 +144,8 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
     cells = [tuple(int(v) // reach.factor for v in reach.grid.world_to_cell(*g)) for g in goals]
     straight = np.array([math.dist(robot_xy, g) for g in goals])
     out = straight.tolist()
-    start = _start(comp, reach, robot_xy)
-    if start is None or not goals:
+    starts = _starts(comp, reach, robot_xy)
+    if not starts or not goals:
         return out
     targets: dict[int, list[int]] = {}
     for i, (r, c) in enumerate(cells):
@@ -157,9 +157,11 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
     ok = np.pad(comp, 1, constant_values=False).ravel().tolist()
     moves = ((1, 1.0), (-1, 1.0), (wp, 1.0), (-wp, 1.0), (wp + 1, _SQRT2), (wp - 1, _SQRT2),
              (-wp + 1, _SQRT2), (-wp - 1, _SQRT2))
-    s = (start[0] + 1) * wp + start[1] + 1
-    dist = {s: 0.0}
-    heap = [(0.0, s)]
+    row, col = (int(v) // reach.factor for v in reach.grid.world_to_cell(*robot_xy))
+    s = (row + 1) * wp + col + 1  # the robot's own cell: where a path's first leg starts from
+    dist = {(r + 1) * wp + c + 1: d for r, c, d in starts}
+    heap = [(d, i) for i, d in dist.items()]
+    heapq.heapify(heap)
     while heap and open_goals.any():
         d, i = heapq.heappop(heap)
         if d > dist.get(i, math.inf):
@@ -219,19 +221,27 @@ def _first_leg(dist: dict[int, float], goal: int, start: int, wp: int, moves, le
     ``goal``, found by descending the search's distances from the goal."""
     i = goal
     while dist[i] > lead_cells:
-        i = min((i + step for step, _ in moves if i + step in dist), key=dist.__getitem__)
+        j = min((i + step for step, _ in moves if i + step in dist), key=dist.__getitem__)
+        if dist[j] >= dist[i]:
+            break  # a start cell of the search: the path begins here
+        i = j
     return i // wp - start // wp, i % wp - start % wp
 
 
-def _start(comp: np.ndarray, reach: Reachability, robot_xy: tuple[float, float]) -> tuple[int, int] | None:
-    """The robot's planning cell, or the nearest cell of the reachable area within 1 m."""
+def _starts(comp: np.ndarray, reach: Reachability, robot_xy: tuple[float, float]) -> list[tuple[int, int, float]]:
+    """Where the search starts, (row, col, cells from the robot): the robot's planning cell,
+    or, when it stands in the inflated zone, every cell of the reachable area within 1 m.
+
+    Not only the nearest: :class:`.Reachability` joins every traversable component within
+    the planner's escape radius, and the nearest cell may lie on a scrap of one that leads
+    nowhere (a strip outside the building). Searched from it alone, every goal of the
+    other pieces had "no path", and a hospital build ended `done` at 66 % (issue 16, 7.6).
+    """
     row, col = (int(v) // reach.factor for v in reach.grid.world_to_cell(*robot_xy))
     h, w = comp.shape
     if 0 <= row < h and 0 <= col < w and comp[row, col]:
-        return row, col
+        return [(row, col, 0.0)]
     r0, c0 = max(row - 10, 0), max(col - 10, 0)
     rr, cc = np.nonzero(comp[r0:row + 11, c0:col + 11])
-    if rr.size == 0:
-        return None
-    k = int(np.argmin((rr + r0 - row) ** 2 + (cc + c0 - col) ** 2))
-    return int(rr[k] + r0), int(cc[k] + c0)
+    d = np.hypot(rr + r0 - row, cc + c0 - col)
+    return [(int(r + r0), int(c + c0), float(x)) for r, c, x in zip(rr, cc, d, strict=True)]
