@@ -164,7 +164,7 @@ class ExplorationParams:
     travel_offset: float = 2.0  # [m] fixed cost of any goal (stop, turn, decide), added to its path
     hysteresis: float = 0.25  # [-] utility bonus of the frontier the last goal served
     hysteresis_radius: float = 1.5  # [m] a frontier cell this near the last goal's is the same frontier
-    turn_cost: float = 0.6  # [m] path a goal behind costs per radian turned on the spot (speed / turn rate)
+    turn_cost: float = 0.0  # [m] path a goal behind costs per radian turned on the spot (0.6: speed / turn rate)
     free_turn_deg: float = 45.8  # [deg] heading error turned while driving (navigation's turn-in-place angle)
 
     def __post_init__(self) -> None:

@@ -120,7 +120,8 @@ def test_a_goal_behind_the_robot_costs_the_turn_on_the_spot():
     robot = (4.3, 1.5)  # the west room is 0.6 m nearer
 
     def choose(yaw):
-        return Explorer(ExplorationParams(), 0.0, planner=PlannerParams()).next_goal(grid, robot, 0.0, yaw)
+        params = ExplorationParams(turn_cost=0.6)  # opt-in (docs/exploration.md 7.6)
+        return Explorer(params, 0.0, planner=PlannerParams()).next_goal(grid, robot, 0.0, yaw)
 
     assert choose(None).xy[0] < robot[0]  # heading unknown: the nearer room
     assert choose(math.pi).xy[0] < robot[0]  # facing it
