@@ -10,8 +10,7 @@ import numpy as np
 
 from bomc_bt.exploration.dwfe import ExplorationParams
 from bomc_bt.exploration.explorer import DONE, EXPLORING, Explorer, still_open
-from bomc_bt.exploration.gain import path_distances, visible_unknown
-from bomc_bt.exploration.reachability import Reachability
+from bomc_bt.exploration.gain import visible_unknown
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from bomc_bt.planner import GridPlanner, PlannerParams
 
@@ -129,33 +128,3 @@ def test_a_goal_behind_the_robot_costs_the_turn_on_the_spot():
     no_turn_cost = Explorer(ExplorationParams(turn_cost=0.0), 0.0, planner=PlannerParams())
     assert no_turn_cost.next_goal(grid, robot, 0.0, 0.0).xy[0] < robot[0]
 
-
-def test_a_goal_reached_but_still_open_strikes_off_its_spot_not_the_whole_frontier():
-    """A long shadow edge whose first look left it open: the rest of it is still a goal."""
-    data = np.full((cell(6.0), cell(10.0)), OCCUPIED, np.int8)
-    data[cell(0.5):cell(5.5), cell(0.5):cell(3.0)] = FREE  # a room with its east side open
-    data[cell(0.5):cell(5.5), cell(3.0):cell(9.5)] = UNKNOWN  # a long edge along the unknown
-    grid = grid_of(data)
-    ex = Explorer(ExplorationParams(), 0.0, planner=PlannerParams())
-    first = ex.next_goal(grid, (1.0, 1.0), 0.0)
-    assert first is not None
-    ex.goal_reached(first, still_open=True, grid=grid, robot_xy=first.xy)
-    again = ex.next_goal(grid, first.xy, 10.0)
-    assert again is not None and ex.status == EXPLORING  # before: "done", the whole edge struck off
-    assert math.dist(again.looks_at, first.looks_at) > ExplorationParams().blacklist_radius
-    assert math.dist(again.xy, first.xy) > ExplorationParams().blacklist_radius
-
-
-def test_a_robot_in_the_inflated_zone_between_two_pieces_still_has_paths_to_both():
-    """Standing against a thin wall, nearer a closed pocket behind it than the room: the
-    room's goals still have a path (before: "none has a path", the build ended done)."""
-    data = np.full((cell(3.5), cell(6.0)), OCCUPIED, np.int8)
-    data[cell(0.5):cell(2.0), cell(0.5):cell(5.5)] = FREE  # the room
-    data[cell(2.1):cell(2.9), cell(1.0):cell(2.0)] = FREE  # a closed pocket behind a 0.1 m wall
-    grid = grid_of(data)
-    robot = (1.5, 2.15)  # 0.05 m into the pocket side, inside the inflated zone
-    reach = Reachability(grid, PlannerParams(), robot)
-    room_goal = (4.0, 1.2)
-    assert reach.contains(room_goal)
-    to_room, = path_distances(reach, robot, [room_goal], np.array([10.0]), 2.0)
-    assert math.isfinite(to_room) and to_room < 4.0

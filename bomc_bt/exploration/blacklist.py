@@ -13,10 +13,7 @@ which the way was plain. So an entry made by a *failure* is re-admitted
 
 at most ``max_retries`` times per place, so an exploration always ends. A goal that was
 *reached* but stayed open (it looks into a glass wall or a pocket behind furniture) is
-not re-admitted: the robot stood there and saw what can be seen from it. Such an entry
-strikes off that goal and the frontier cell it looked at (:meth:`Blacklist.contains`),
-not the frontier they belong to (:meth:`Blacklist.filter`): the rest of a long frontier,
-a shadow edge along a shelf, is still to be looked at from elsewhere.
+not re-admitted: the robot stood there and saw what can be seen from it.
 """
 
 from __future__ import annotations
@@ -41,7 +38,6 @@ class Entry:
     retries: int = 0  # times re-admitted so far
     permanent: bool = False  # never re-admitted (reached but still open, or out of retries)
     active: bool = True
-    looked: bool = False  # reached but still open: strikes off these points, not their frontier
 
 
 @dataclass
@@ -73,7 +69,7 @@ class Blacklist:
         return [p for e in self.entries if e.active for p in e.points]
 
     def add(self, xy: tuple[float, float], *more: tuple[float, float], grid: OccupancyGrid | None = None,
-            robot_xy: tuple[float, float] | None = None, permanent: bool = False, looked: bool = False) -> Entry:
+            robot_xy: tuple[float, float] | None = None, permanent: bool = False) -> Entry:
         """Blacklist a goal at ``xy`` (and its other points, e.g. the frontier's centroid).
 
         A place blacklisted before (an inactive entry within ``radius``) keeps its retry
@@ -83,7 +79,7 @@ class Blacklist:
         old = next((e for e in self.entries if not e.active and math.dist(e.points[0], pts[0]) <= self.radius),
                    None)
         entry = old or Entry(pts)
-        entry.points, entry.active, entry.looked = pts, True, looked
+        entry.points, entry.active = pts, True
         entry.permanent = entry.permanent or permanent or entry.retries >= self.max_retries
         entry.known = known_cells(grid, pts[0], self.readmit_radius) if grid is not None else -1
         entry.robot_far = robot_xy is not None and math.dist(robot_xy, pts[0]) > self.near_radius
@@ -112,13 +108,8 @@ class Blacklist:
         x, y = float(xy[0]), float(xy[1])
         return any(math.hypot(x - px, y - py) <= self.radius for px, py in self.points)
 
-    @property
-    def looked_points(self) -> list[tuple[float, float]]:
-        """The points of goals reached but still open: no new goal should look there again."""
-        return [p for e in self.entries if e.active and e.looked for p in e.points]
-
     def filter(self, frontiers: list[Frontier]) -> list[Frontier]:
-        points = [p for e in self.entries if e.active and not e.looked for p in e.points]
+        points = self.points
         if not points:
             return list(frontiers)
         pts = np.asarray(points)

@@ -157,8 +157,7 @@ class Explorer:
     def _choose(self, grid: OccupancyGrid, robot_xy: tuple[float, float], reach: Reachability | None,
                 candidates: list[Candidate]) -> tuple[Choice, Candidate | None]:
         """The explorer's pick among ``candidates`` (those far enough from the robot)."""
-        far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance
-               and not self.blacklist.contains(c.goal) and not self.blacklist.contains(c.anchor)]
+        far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance]
         if self.params.explorer == "gain":
             return choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist, self._last_anchor,
                                   self._yaw)
@@ -209,10 +208,9 @@ class Explorer:
         reachable, self.unreachable = reach.split(found)
         self.frontiers = [f for f, _ in reachable]
         standoffs = Standoffs(grid, reach, self.clearance, self.params.max_standoff)
-        looked = np.asarray(self.blacklist.looked_points).reshape(-1, 2)
         out = []
         for f, ok in reachable:
-            safe = standoffs.goal(f, looked, self.params.hysteresis_radius)  # that radius: "the same spot"
+            safe = standoffs.goal(f)
             out.append(Candidate(f, *safe) if safe is not None
                        else _plain(f, frontier_target(grid, f, distance, self.clearance, ok)))
         return out
@@ -295,13 +293,9 @@ class Explorer:
         return out
 
     def _blacklist(self, goal: Goal, grid: OccupancyGrid | None, robot_xy, permanent: bool = False) -> None:
-        # A failed goal: the target and the frontier's centroid (the blacklist matches
-        # frontiers by their nearest cell or centroid, and a target may lie away from both on
-        # a long frontier). A goal reached but still open: the target and the frontier cell
-        # it looked at, struck off as goals only (see .blacklist); one such goal struck a whole
-        # shadow edge off for good and a warehouse build ended "done" at 84 % (issue 16, 7.6).
-        other = goal.looks_at if permanent else goal.frontier.centroid
-        self.blacklist.add(goal.xy, other, grid=grid, robot_xy=robot_xy, permanent=permanent, looked=permanent)
+        # The target and the frontier's centroid: the blacklist matches frontiers by their
+        # nearest cell or centroid, and a target may lie away from both on a long frontier.
+        self.blacklist.add(goal.xy, goal.frontier.centroid, grid=grid, robot_xy=robot_xy, permanent=permanent)
 
     def _finish(self, status: str, reason: str) -> None:
         self.status = status

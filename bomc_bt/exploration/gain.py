@@ -63,23 +63,17 @@ class Standoffs:
         self.dist = dist * grid.resolution
         self.nearest_flat = index[labels]
 
-    def goal(self, frontier: Frontier, avoid: np.ndarray | None = None,
-             avoid_radius: float = 0.0) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    def goal(self, frontier: Frontier) -> tuple[tuple[float, float], tuple[float, float]] | None:
         """(goal, anchor): the safe cell nearest the frontier cell closest to its centroid
-        among those that have one within ``max_standoff`` and lie farther than
-        ``avoid_radius`` from every ``avoid`` point (cells already looked at from a goal
-        that left them open); None when no cell qualifies."""
+        among those that have one within ``max_standoff``; None when no cell has."""
         if not self.any:
             return None
         rows, cols = frontier.cells[:, 0], frontier.cells[:, 1]
         ok = self.dist[rows, cols] <= self.max_standoff
-        xs, ys = self.grid.cell_to_world(rows, cols)
-        if avoid is not None and len(avoid):
-            near = np.hypot(xs[:, None] - avoid[None, :, 0], ys[:, None] - avoid[None, :, 1]) <= avoid_radius
-            ok &= ~near.any(axis=1)
         if not ok.any():
             return None
-        rows, cols, xs, ys = rows[ok], cols[ok], xs[ok], ys[ok]
+        rows, cols = rows[ok], cols[ok]
+        xs, ys = self.grid.cell_to_world(rows, cols)
         cx, cy = frontier.centroid
         i = int(np.argmin((xs - cx) ** 2 + (ys - cy) ** 2))
         flat = int(self.nearest_flat[rows[i], cols[i]])
@@ -144,8 +138,8 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
     cells = [tuple(int(v) // reach.factor for v in reach.grid.world_to_cell(*g)) for g in goals]
     straight = np.array([math.dist(robot_xy, g) for g in goals])
     out = straight.tolist()
-    starts = _starts(comp, reach, robot_xy)
-    if not starts or not goals:
+    start = _start(comp, reach, robot_xy)
+    if start is None or not goals:
         return out
     targets: dict[int, list[int]] = {}
     for i, (r, c) in enumerate(cells):
@@ -157,11 +151,9 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
     ok = np.pad(comp, 1, constant_values=False).ravel().tolist()
     moves = ((1, 1.0), (-1, 1.0), (wp, 1.0), (-wp, 1.0), (wp + 1, _SQRT2), (wp - 1, _SQRT2),
              (-wp + 1, _SQRT2), (-wp - 1, _SQRT2))
-    row, col = (int(v) // reach.factor for v in reach.grid.world_to_cell(*robot_xy))
-    s = (row + 1) * wp + col + 1  # the robot's own cell: where a path's first leg starts from
-    dist = {(r + 1) * wp + c + 1: d for r, c, d in starts}
-    heap = [(d, i) for i, d in dist.items()]
-    heapq.heapify(heap)
+    s = (start[0] + 1) * wp + start[1] + 1
+    dist = {s: 0.0}
+    heap = [(0.0, s)]
     while heap and open_goals.any():
         d, i = heapq.heappop(heap)
         if d > dist.get(i, math.inf):
@@ -228,20 +220,15 @@ def _first_leg(dist: dict[int, float], goal: int, start: int, wp: int, moves, le
     return i // wp - start // wp, i % wp - start % wp
 
 
-def _starts(comp: np.ndarray, reach: Reachability, robot_xy: tuple[float, float]) -> list[tuple[int, int, float]]:
-    """Where the search starts, (row, col, cells from the robot): the robot's planning cell,
-    or, when it stands in the inflated zone, every cell of the reachable area within 1 m.
-
-    Not only the nearest: :class:`.Reachability` joins every traversable component within
-    the planner's escape radius, and the nearest cell may lie on a scrap of one that leads
-    nowhere (a strip outside the building). Searched from it alone, every goal of the
-    other pieces had "no path", and a hospital build ended `done` at 66 % (issue 16, 7.6).
-    """
+def _start(comp: np.ndarray, reach: Reachability, robot_xy: tuple[float, float]) -> tuple[int, int] | None:
+    """The robot's planning cell, or the nearest cell of the reachable area within 1 m."""
     row, col = (int(v) // reach.factor for v in reach.grid.world_to_cell(*robot_xy))
     h, w = comp.shape
     if 0 <= row < h and 0 <= col < w and comp[row, col]:
-        return [(row, col, 0.0)]
+        return row, col
     r0, c0 = max(row - 10, 0), max(col - 10, 0)
     rr, cc = np.nonzero(comp[r0:row + 11, c0:col + 11])
-    d = np.hypot(rr + r0 - row, cc + c0 - col)
-    return [(int(r + r0), int(c + c0), float(x)) for r, c, x in zip(rr, cc, d, strict=True)]
+    if rr.size == 0:
+        return None
+    k = int(np.argmin((rr + r0 - row) ** 2 + (cc + c0 - col) ** 2))
+    return int(rr[k] + r0), int(cc[k] + c0)
