@@ -78,7 +78,7 @@ class ChooseFrontier(Leaf):
             return Status.RUNNING
         grid = ctx.robot.live_map()
         ctx.progress.explored_area = grid.free_area()
-        goal = ctx.explorer.next_goal(grid, (pose.x, pose.y), ctx.now())
+        goal = ctx.explorer.next_goal(grid, (pose.x, pose.y), ctx.now(), pose.yaw)
         if goal is None:
             self.feedback_message = f"{ctx.explorer.status}: {ctx.explorer.reason}"
             return Status.SUCCESS

@@ -135,8 +135,7 @@ class ExplorationParams:
     max_time: float = 0.0  # [s] robot-time limit of a build; 0: none, explore until no reachable frontier is left
     blacklist_radius: float = 0.5  # [m] frontiers this close to a failed goal are skipped
     progress_timeout: float = 30.0  # [s] robot time without progress before a goal is blacklisted
-    # A build that maps less than min_progress_area in no_progress_time ends ("no_progress"):
-    # the guard against a runaway, instead of a fixed time limit.
+    # Less than min_progress_area newly mapped in no_progress_time ends a build ("no_progress"): a runaway guard.
     no_progress_time: float = 600.0  # [s] robot time without new mapped area after which exploration ends
     min_progress_area: float = 2.0  # [m2] new known-free area that counts as progress
     # A failed goal is tried again when the known area within blacklist_readmit_radius of it
@@ -146,8 +145,7 @@ class ExplorationParams:
     blacklist_readmit_area: float = 0.25  # [m2] change of known area there that re-admits it
     blacklist_near_radius: float = 1.5  # [m] the robot this close to a failed goal re-admits it
     blacklist_max_retries: int = 2  # [count] re-admissions per place
-    # A robot that fails goals without moving backs out along its trajectory and replans
-    # before it is declared stuck.
+    # A robot that fails goals without moving backs out along its trajectory and replans before it is "stuck".
     backout_distance: float = 1.5  # [m] back along the trajectory driven, towards where it came from
     max_backouts: int = 2  # [count] back-outs without progress before "stuck" may be declared
     # [bool] frontiers count only where the planner can take the robot (its clearance, unknown
@@ -166,14 +164,16 @@ class ExplorationParams:
     travel_offset: float = 2.0  # [m] fixed cost of any goal (stop, turn, decide), added to its path
     hysteresis: float = 0.25  # [-] utility bonus of the frontier the last goal served
     hysteresis_radius: float = 1.5  # [m] a frontier cell this near the last goal's is the same frontier
+    turn_cost: float = 0.0  # [m] path a goal behind costs per radian turned on the spot (0.6: speed / turn rate)
+    free_turn_deg: float = 45.8  # [deg] heading error turned while driving (navigation's turn-in-place angle)
 
     def __post_init__(self) -> None:
         if self.explorer not in ("gain", "dwfe", "baseline"):
             raise ValueError(f"explorer: must be 'gain', 'dwfe' or 'baseline', got {self.explorer!r}")
         _positive(self, "local_radius", "global_radius", "progress_timeout", "no_progress_time",
                   "blacklist_readmit_radius", "blacklist_near_radius", "gain_radius", "max_standoff")
-        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale", "min_frontier_size",
-                      "blacklist_radius", "max_time", "min_progress_area", "blacklist_readmit_area",
+        _non_negative(self, "alpha", "beta", "potential_scale", "gain_scale", "min_frontier_size", "turn_cost",
+                      "blacklist_radius", "max_time", "min_progress_area", "blacklist_readmit_area", "free_turn_deg",
                       "backout_distance", "min_gain", "travel_offset", "hysteresis", "hysteresis_radius")
         if self.global_radius < self.local_radius:
             raise ValueError("global_radius: must be at least local_radius "

@@ -103,3 +103,28 @@ def test_a_frontier_closed_by_a_wall_is_mapped_although_unknown_stays_behind_the
     assert still_open(grid, (1.45, 1.5), 0.6, 3)
     data[:, cell(1.5):cell(1.6)] = OCCUPIED  # the lidar saw a wall; its inside stays unknown
     assert not still_open(grid_of(data), (1.45, 1.5), 0.6, 3)
+
+
+def corridor_between_two_unknown_rooms() -> np.ndarray:
+    """A 1 m wide corridor (x 2-7 m) between two equal unknown rooms (x 0-2 and 7-9 m)."""
+    data = np.full((cell(3.0), cell(9.0)), OCCUPIED, np.int8)
+    data[cell(1.0):cell(2.0), cell(2.0):cell(7.0)] = FREE
+    data[:, :cell(2.0)] = UNKNOWN
+    data[:, cell(7.0):] = UNKNOWN
+    return data
+
+
+def test_a_goal_behind_the_robot_costs_the_turn_on_the_spot():
+    grid = grid_of(corridor_between_two_unknown_rooms())
+    robot = (4.3, 1.5)  # the west room is 0.6 m nearer
+
+    def choose(yaw):
+        params = ExplorationParams(turn_cost=0.6)  # opt-in (docs/exploration.md 7.6)
+        return Explorer(params, 0.0, planner=PlannerParams()).next_goal(grid, robot, 0.0, yaw)
+
+    assert choose(None).xy[0] < robot[0]  # heading unknown: the nearer room
+    assert choose(math.pi).xy[0] < robot[0]  # facing it
+    assert choose(0.0).xy[0] > robot[0]  # facing east: turning 180 degrees costs more than 0.6 m
+    no_turn_cost = Explorer(ExplorationParams(turn_cost=0.0), 0.0, planner=PlannerParams())
+    assert no_turn_cost.next_goal(grid, robot, 0.0, 0.0).xy[0] < robot[0]
+

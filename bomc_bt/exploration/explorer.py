@@ -93,6 +93,7 @@ class Explorer:
         self._streak_backouts = 0
         self._backout_due = False
         self._last_anchor: tuple[float, float] | None = None
+        self._yaw: float | None = None
         self.frontiers: list[Frontier] = []
         self.unreachable: list[Frontier] = []
         self.area = AreaWatch(params.no_progress_time, params.min_progress_area, start_time)
@@ -119,8 +120,11 @@ class Explorer:
                                       f"{self.params.no_progress_time:.0f} s")
         return self.status != EXPLORING
 
-    def next_goal(self, grid: OccupancyGrid, robot_xy: tuple[float, float], now: float) -> Goal | None:
-        """The next frontier (or back-out point) to drive to, or None with :attr:`status` saying why not."""
+    def next_goal(self, grid: OccupancyGrid, robot_xy: tuple[float, float], now: float,
+                  robot_yaw: float | None = None) -> Goal | None:
+        """The next frontier (or back-out point) to drive to, or None with :attr:`status`
+        saying why not. ``robot_yaw`` (rad), when known, lets the gain explorer count the
+        turn on the spot a goal behind the robot costs."""
         self.observe(robot_xy, now, grid.free_area())
         if self.limit_reached(now):
             return None
@@ -136,6 +140,7 @@ class Explorer:
         # A frontier whose best target is where the robot already stands (the blind sector
         # behind a 220-degree lidar) is mapped by the turn towards any other goal: _choose
         # skips those.
+        self._yaw = robot_yaw
         choice, best = self._choose(grid, robot_xy, reach, self._candidates(grid, robot_xy, reach))
         self.last_choice = choice
         window = choice.window
@@ -154,7 +159,8 @@ class Explorer:
         """The explorer's pick among ``candidates`` (those far enough from the robot)."""
         far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance]
         if self.params.explorer == "gain":
-            return choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist, self._last_anchor)
+            return choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist, self._last_anchor,
+                                  self._yaw)
         choice = choose_frontier([c.frontier for c in far], robot_xy, self.params, self.blacklist)
         return choice, next((c for c in far if c.frontier is choice.frontier), None)
 

@@ -26,7 +26,7 @@ from bomc_bt.algorithm_params import ExplorationParams
 from bomc_bt.exploration.blacklist import Blacklist
 from bomc_bt.exploration.dwfe import Choice
 from bomc_bt.exploration.frontiers import Frontier
-from bomc_bt.exploration.gain import path_distances, visible_unknown
+from bomc_bt.exploration.gain import Heading, path_distances, visible_unknown
 from bomc_bt.exploration.reachability import Reachability
 from bomc_bt.grid import OccupancyGrid
 
@@ -44,8 +44,10 @@ class Candidate:
 
 def choose_by_gain(grid: OccupancyGrid, candidates: list[Candidate], robot_xy: tuple[float, float],
                    reach: Reachability, params: ExplorationParams, blacklist: Blacklist,
-                   previous_anchor: tuple[float, float] | None) -> tuple[Choice, Candidate | None]:
-    """The best candidate by gain per metre, or a termination with the reason."""
+                   previous_anchor: tuple[float, float] | None,
+                   robot_yaw: float | None = None) -> tuple[Choice, Candidate | None]:
+    """The best candidate by gain per metre, or a termination with the reason; with
+    ``robot_yaw`` a goal's metres include the turn on the spot before its path."""
     if not candidates:
         return Choice(None, "none", math.inf, "no frontiers left"), None
     allowed = set(map(id, blacklist.filter([c.frontier for c in candidates])))
@@ -64,7 +66,9 @@ def choose_by_gain(grid: OccupancyGrid, candidates: list[Candidate], robot_xy: t
     value = [c.gain * (1.0 + (params.hysteresis if previous_anchor is not None
                               and math.dist(c.anchor, previous_anchor) <= params.hysteresis_radius else 0.0))
              for c in worth]
-    distances = path_distances(reach, robot_xy, [c.goal for c in worth], value, params.travel_offset)
+    heading = (Heading(robot_yaw, params.turn_cost, math.radians(params.free_turn_deg))
+               if robot_yaw is not None and params.turn_cost > 0 else None)
+    distances = path_distances(reach, robot_xy, [c.goal for c in worth], value, params.travel_offset, heading)
     for c, d in zip(worth, distances, strict=True):
         c.distance = d
     scored = [(value[k] / (c.distance + params.travel_offset), -c.distance, -k)
