@@ -11,6 +11,7 @@ import pytest
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import FREE, OCCUPIED, OccupancyGrid
 from bomc_bt.robot import RobotPort, Status
+from bomc_bt.sim.faults import PERSON_RADIUS
 from bomc_bt.sim.lidar import Lidar, LidarParams, naive_trace, sphere_trace
 from bomc_bt.sim.mapper import Mapper, ObstacleLayer, ObstacleLayerParams
 from bomc_bt.sim.params import FaultParams
@@ -329,6 +330,25 @@ def test_people_are_seen_by_the_lidar_and_stop_the_robot():
     handle = robot.navigate(Pose2D(8.0, 0.7))
     assert run_until_done(robot, handle, 100.0) is Status.BLOCKED
     assert robot.true_pose.x < 4.0 - 0.25 - 0.25
+
+
+def test_the_base_never_slides_into_a_person_who_blocks_it():
+    """A step onto a person is refused, and the base stops: it is not pushed off the way a
+    base pressed against a wall is (which once carried it, step by step, into the person
+    until its lidar saw nothing else and the pass ended "lost")."""
+    world = make_world(room_data(10.0, 3.0), Pose2D(1.0, 0.5, 0.0))  # the wall 0.4 m below the robot
+    params = SimParams(faults=FaultParams(people=1, person_speed=0.0))
+    robot = SimRobot(world, 1, params, seed=0)
+    robot.people.place([[1.45, 0.75]])  # ahead and towards the open side, where a slide would go
+    robot.step()
+    handle = robot.navigate(Pose2D(8.0, 0.5))
+    nearest = math.inf
+    for _ in range(600):
+        robot.step()
+        nearest = min(nearest, math.dist(robot.true_pose.xy, (1.45, 0.75)))
+        if handle.status() is not Status.RUNNING:
+            break
+    assert nearest >= params.motion.body_radius + PERSON_RADIUS - 1e-9
 
 
 class RecordingCamera:

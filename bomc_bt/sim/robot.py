@@ -211,8 +211,10 @@ class SimRobot:
             radius = self.params.motion.body_radius
             before = self.scene.clearance(t.x, t.y)
             after = self.scene.clearance(x, y)
-            xy = np.array([x, y])
-            if (after < radius and after <= before) or self.people.blocks(xy, radius):
+            if self.people.blocks(np.array([x, y]), radius):  # a person in the way: stop, wait
+                x, y = t.x, t.y
+                self._stuck = True
+            elif after < radius and after <= before:
                 x, y = self._slide_out(t, radius)
                 self._stuck = True
         self.distance_travelled += math.hypot(x - t.x, y - t.y)
@@ -227,12 +229,15 @@ class SimRobot:
         neighbouring point of most clearance: clearance is read per cell, so a shorter
         step lands on the same value and a wedged robot (between a chair and a pillar,
         both its forward and its backward step refused) never moved (hospital, issue 16).
+        A person is not pushed: a step onto one is no way out (people wait for the robot, the
+        base never slides into them; it did, and its lidar then saw nothing but the person).
         """
         c = self.scene.clearance
         step = self.scene.grid.resolution
         angles = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
         xs, ys = t.x + step * np.cos(angles), t.y + step * np.sin(angles)
-        room = [c(float(x), float(y)) for x, y in zip(xs, ys, strict=True)]
+        room = [-math.inf if self.people.blocks(np.array([x, y]), radius) else c(float(x), float(y))
+                for x, y in zip(xs, ys, strict=True)]
         best = int(np.argmax(room))
         return (float(xs[best]), float(ys[best])) if room[best] > c(t.x, t.y) else (t.x, t.y)
 
