@@ -10,9 +10,9 @@ reported as added, a change at a place no pass had actually seen.
 Here each sampled column stops at the nearest thing standing on the floor (a pixel whose
 map-frame height is between ``STANDING_MIN`` and ``STANDING_MAX``): furniture, a wall, a
 person. Beyond it the floor is hidden at the height objects have, so it was not looked
-at. Pixels at floor height (within depth noise of the floor) and anything above
-``STANDING_MAX`` (a lamp, a door frame, a table top's overhang seen from below would be
-too, but an object's body is lower) do not cut the column. A column with nothing standing
+at. Pixels at floor height (within depth noise of the floor) do not cut the column, and
+neither does anything above ``STANDING_MAX`` (a lamp, a door frame): an object's body
+below it would still be in view. A column with nothing standing
 in it ends at its farthest valid pixel, as the fan does; every vertex is then pulled in to
 ``reach`` (``projection.expect_range``). The result is never larger than the fan cut to
 ``reach``: it is conservative, more first sightings and fewer claimed additions.
