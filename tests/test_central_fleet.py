@@ -107,6 +107,11 @@ def rendered(browser: Browser, where: str, points: list[tuple[float, float]], sh
         browser.wait_for("document.querySelector('#diff').dataset.ready === '1-2' && bomcViewer.state.map.img"
                          " && +document.querySelector('#map').dataset.draws > 0 && bomcHeatmap.state.settled",
                          what="the site drawn")
+        # The map fills what the panels leave; their text (the site's name, a folder or a floor)
+        # may wrap differently, so both pages draw at one fixed size to be compared pixel for pixel.
+        browser.evaluate("(() => { const m = document.querySelector('#map'); Object.assign(m.style, {position: "
+                         "'fixed', left: '0px', top: '0px', width: '720px', height: '540px'}); "
+                         "bomcViewer.draw(); return true; })()")
         page = browser.evaluate("""(() => ({
             sessions: Array.from(document.querySelectorAll('#sessions li.session')).map(li => li.dataset.session),
             added: Array.from(document.querySelectorAll('#diff-added li[data-id]')).map(li => +li.dataset.id),

@@ -245,7 +245,7 @@ function fitView(canvas, scene) {
 }
 const toCanvas = (v, x, y) => [v.ox + (x - v.x0) * v.k, v.oy + (v.y1 - y) * v.k];
 
-function draw() {
+function draw(again = true) {
   const canvas = $("map");
   const dpr = window.devicePixelRatio || 1;
   const w = Math.max(1, Math.round(canvas.clientWidth * dpr)), h = Math.max(1, Math.round(canvas.clientHeight * dpr));
@@ -321,6 +321,10 @@ function draw() {
   $("legend").innerHTML = Object.keys(cats).sort().map((c) => `<span data-category="${esc(c)}"><span class="sw" style="background:${cats[c]}"></span>${esc(c)}</span>`).join("");
   S.draws += 1;
   canvas.dataset.draws = String(S.draws);
+  // A new legend row can change the page's layout and so the canvas's size: draw again at
+  // the size it has now (reading it lays the page out), or the map stays stretched.
+  const nw = Math.max(1, Math.round(canvas.clientWidth * dpr)), nh = Math.max(1, Math.round(canvas.clientHeight * dpr));
+  if (again !== false && (nw !== w || nh !== h)) draw(false);
 }
 function cross(g, [x, y], s, colour, width) {
   g.beginPath(); g.moveTo(x - s, y - s); g.lineTo(x + s, y + s); g.moveTo(x + s, y - s); g.lineTo(x - s, y + s);
@@ -341,6 +345,7 @@ $("tree").addEventListener("click", onTreeClick);
 $("sessions").addEventListener("click", onSessionsClick);
 $("diff-a").addEventListener("change", onCompareChange);
 $("diff-b").addEventListener("change", onCompareChange);
-window.addEventListener("resize", draw);
+window.addEventListener("resize", () => draw());
+new ResizeObserver(() => draw()).observe($("map"));  // panels that grow or shrink resize the map too
 setConnected(false);
 connect();
