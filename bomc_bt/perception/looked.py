@@ -14,8 +14,9 @@ at. Pixels at floor height (within depth noise of the floor) do not cut the colu
 neither does anything above ``STANDING_MAX`` (a lamp, a door frame): an object's body
 below it would still be in view. A column with nothing standing
 in it ends at its farthest valid pixel, as the fan does; every vertex is then pulled in to
-``reach`` (``projection.expect_range``). The result is never larger than the fan cut to
-``reach``: it is conservative, more first sightings and fewer claimed additions.
+``reach`` (``projection.expect_range``). Each column ends no farther than the fan's own
+(which takes the pixel of greatest optical depth, this one of greatest floor distance,
+nearly always the same pixel): conservative, more first sightings, fewer claimed additions.
 """
 
 from __future__ import annotations
