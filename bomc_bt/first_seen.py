@@ -42,16 +42,18 @@ from __future__ import annotations
 
 import base64
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid, inflate_mask
-from bomc_bt.pass_resume import coverage_key, looked_key, unpack_mask
+from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key, unpack_mask
+from bomc_bt.sightings import unpack_sightings
 
 FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail
+SIGHTED_IN = "sighted_in"  # beside it: the pass that had detected the object there (bomc_bt.sightings)
 
 
 def is_first_seen(event: Event) -> bool:
@@ -65,31 +67,46 @@ class SeenBefore:
 
     grid: OccupancyGrid
     seen: np.ndarray  # bool (H, W): True where an earlier pass saw the floor (margin included)
+    # per category, where the previous pass detected objects (widened by the sighting radius)
+    sighted: dict[str, np.ndarray] = field(default_factory=dict)
+    sighted_in: int | None = None  # that pass
 
-    def saw(self, xy: np.ndarray) -> np.ndarray:
-        """Bool per (x, y) point: an earlier pass saw that place (off the map: never)."""
+    def saw(self, xy: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+        """Bool per (x, y) point: an earlier pass saw that place (off the map: never); with
+        ``mask``, whether that mask holds the place."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         rows, cols = self.grid.world_to_cell(xy[:, 0], xy[:, 1])
         inside = self.grid.in_bounds(rows, cols)
         out = np.zeros(len(xy), dtype=bool)
-        out[inside] = self.seen[rows[inside], cols[inside]]
+        out[inside] = (self.seen if mask is None else mask)[rows[inside], cols[inside]]
         return out
 
     def mark(self, events: list[Event]) -> int:
-        """Mark the ``added`` events at places no earlier pass saw as first seen; how many."""
+        """Mark as first seen the ``added`` events at places no earlier pass saw, and those
+        where the previous pass detected an object of their category; how many."""
         added = [e for e in events if e.kind == "added"]
         if not added:
             return 0
-        saw = self.saw(np.array([np.asarray(e.position, dtype=float)[:2] for e in added]))
-        for event, seen in zip(added, saw, strict=True):
-            if not seen:
+        xy = np.array([np.asarray(e.position, dtype=float)[:2] for e in added])
+        saw = self.saw(xy)
+        marked = 0
+        for i, event in enumerate(added):
+            mask = self.sighted.get(event.category)
+            if not saw[i]:
                 event.detail = {**(event.detail or {}), FIRST_SEEN: True}
-        return int(np.count_nonzero(~saw))
+            elif mask is not None and self.saw(xy[i], mask)[0]:
+                event.detail = {**(event.detail or {}), FIRST_SEEN: True, SIGHTED_IN: self.sighted_in}
+            else:
+                continue
+            marked += 1
+        return marked
 
 
-def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float) -> SeenBefore | None:
+def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float,
+                     sighting_radius: float = 0.0) -> SeenBefore | None:
     """What the recorded passes before ``session`` saw, or None where it is not known (see the
-    module docstring: no earlier pass, or one without a saved mask)."""
+    module docstring: no earlier pass, or one without a saved mask); with ``sighting_radius``
+    (m, > 0) also where the previous one detected objects (:mod:`bomc_bt.sightings`)."""
     earlier = [s.number for s in store.sessions() if s.number < session]
     if not earlier:
         return None
@@ -101,7 +118,22 @@ def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float) ->
         if mask is None:
             return None
         union |= mask
-    return SeenBefore(grid, inflate_mask(union, margin / grid.resolution))
+    seen = SeenBefore(grid, inflate_mask(union, margin / grid.resolution))
+    if sighting_radius > 0.0:
+        seen.sighted_in = max(earlier)
+        seen.sighted = previous_sightings(store, seen.sighted_in, grid, sighting_radius)
+    return seen
+
+
+def previous_sightings(store, session: int, grid: OccupancyGrid, radius: float) -> dict[str, np.ndarray]:
+    """Pass ``session``'s sightings, each widened by ``radius`` (m); none where it saved none
+    (a pass recorded before they were); a mask not of this map is a corrupt store."""
+    try:
+        masks = unpack_sightings(store.get_progress(sightings_key(session)), grid.data.shape)
+    except (ValueError, TypeError, zlib.error) as exc:
+        raise BomcError(f"corrupt site store: the saved sightings of session {session} are not masks of this map "
+                        f"({exc})", store.path, f"progress.{sightings_key(session)}") from None
+    return {c: inflate_mask(m, radius / grid.resolution) for c, m in (masks or {}).items()}
 
 
 def saved_coverage(store, session: int, shape: tuple[int, int], key: str | None = None) -> np.ndarray | None:

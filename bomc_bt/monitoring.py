@@ -26,6 +26,7 @@ from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.looked import looked_polygon
 from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon
 from bomc_bt.robot import RGBDFrame
+from bomc_bt.sightings import Sightings
 from bomc_bt.traversal import TraversalPlan
 
 PENDING, VISITED, DETOURED, MISSED = "pending", "visited", "detoured", "missed"
@@ -305,6 +306,7 @@ seen before it is written. With a store, every frame
     # the floor seen within projection.expect_range (where a missed object is evidence of its
     # absence): what later passes tell first-seen objects from added ones by (bomc_bt.first_seen)
     looked: Coverage = field(init=False)
+    sightings: Sightings = field(init=False)  # where detections put objects (bomc_bt.sightings)
     fov_since: list = field(default_factory=list)  # view polygons since the last coverage snapshot
     looked_since: list = field(default_factory=list)  # their parts within expect_range, likewise
     frames: int = 0  # frames processed
@@ -314,12 +316,14 @@ seen before it is written. With a store, every frame
     def __post_init__(self, grid: OccupancyGrid) -> None:
         self.coverage = Coverage(grid, self.near_range)
         self.looked = Coverage(grid)
+        self.sightings = Sightings(grid)
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)
         if self.segmenter is not None and detections:
             detections = self.segmenter.segment(frame, detections)
         observations = detections_to_observations(frame, detections, self.params)
+        self.sightings.add(observations)
         polygon = fov_polygon(frame, self.params)
         self.coverage.add(polygon)
         if polygon is not None and len(polygon) >= 3:

@@ -16,7 +16,9 @@ same SQLite transaction, a *resume point* (progress key ``resume/<session>``):
 * ``frames`` and ``fov_since``: frames processed and the view polygons since the last
   coverage snapshot, which the waypoint commit writes (``coverage/<session>``, packed), so
   the camera's observed area survives the kill too; ``looked_since`` and ``looked/<session>``
-  likewise for the part of it within ``projection.expect_range`` (:mod:`bomc_bt.first_seen`).
+  likewise for the part of it within ``projection.expect_range`` (:mod:`bomc_bt.first_seen`),
+  and ``sighted_since`` and ``sightings/<session>`` for where its detections put objects
+  (:mod:`bomc_bt.sightings`).
 
 The plan's position (``traverse/<session>``) is the waypoint in flight: a resumed pass
 drives on to it from the restored pose. Only the frames after the last commit are lost.
@@ -44,6 +46,11 @@ def looked_key(session: int) -> str:
     return f"looked/{session}"
 
 
+def sightings_key(session: int) -> str:
+    """Where the pass's detections put objects, per category (:mod:`bomc_bt.sightings`)."""
+    return f"sightings/{session}"
+
+
 def near_key(session: int) -> str:
     """The snapshot of the coverage's ``near`` part (what the change model counts as looked at)."""
     return f"coverage_near/{session}"
@@ -58,6 +65,7 @@ def resume_point(perception, robot) -> dict[str, Any]:
         "frames": perception.frames,
         "fov_since": perception.fov_since,
         "looked_since": perception.looked_since,
+        "sighted_since": perception.sightings.since,
     }
 
 
@@ -69,7 +77,7 @@ def frame_progress(perception, robot) -> dict[str, Any]:
 def waypoint_progress(perception, robot) -> dict[str, Any]:
     """The progress keys a waypoint's commit writes besides the plan: a coverage snapshot
     and the resume point (whose list of view polygons starts again after the snapshot)."""
-    perception.fov_since, perception.looked_since = [], []
+    perception.fov_since, perception.looked_since, perception.sightings.since = [], [], []
     return {**coverage_masks(perception), resume_key(perception.session): resume_point(perception, robot)}
 
 
@@ -80,7 +88,7 @@ def coverage_masks(perception) -> dict[str, str]:
     session, coverage = perception.session, perception.coverage
     near = {near_key(session): pack_mask(coverage.near)} if coverage.near is not coverage.seen else {}
     return {coverage_key(session): pack_mask(coverage.seen), looked_key(session): pack_mask(perception.looked.seen),
-            **near}
+            sightings_key(session): perception.sightings.packed(), **near}
 
 
 def restore_pass(store, session: int, robot, perception) -> bool:
@@ -105,6 +113,10 @@ def restore_pass(store, session: int, robot, perception) -> bool:
     looked = store.get_progress(looked_key(session))
     if looked is not None:
         perception.looked.seen[:] = unpack_mask(looked, perception.looked.seen.shape)
+    sightings = store.get_progress(sightings_key(session))
+    if isinstance(sightings, dict):
+        perception.sightings.restore(sightings)
+    perception.sightings.add_points(point.get("sighted_since", []))
     for polygon in point.get("fov_since", []):
         coverage.add(np.asarray(polygon, dtype=float))
     for polygon in point.get("looked_since", []):

@@ -12,7 +12,7 @@ import pytest
 
 from bomc_bt.change_evaluation import reported_changes, score_changes, true_changes
 from bomc_bt.errors import BomcError
-from bomc_bt.first_seen import FIRST_SEEN, SeenBefore, load_seen_before, saved_coverage
+from bomc_bt.first_seen import FIRST_SEEN, SeenBefore, load_seen_before, previous_sightings, saved_coverage
 from bomc_bt.graph import Event
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.net_changes import net_changes, summarize
@@ -194,6 +194,9 @@ def test_objects_pass_1_never_saw_are_first_seen_and_a_new_bin_where_it_looked_i
     # every first-seen node is an object that stood there in session 1 and that pass 1 did not map
     with SiteStore(site, readonly=True) as store:
         mapped_1 = store.graph_after(1)
+        sighted_1 = previous_sightings(store, 1, grid, 0.35)  # where pass 1's detections put objects
+    for n in mapped_1:  # every node pass 1 mapped stands where its detections were
+        assert SeenBefore(grid, seen_1).saw(n.position[:2], sighted_1[n.category])[0], n
     for c in by_kind["first_seen"]:
         there = [o for o in objects.values() if o.category == c["category"]
                  and np.hypot(o.position[0] - c["new"][0], o.position[1] - c["new"][1]) < 0.7]

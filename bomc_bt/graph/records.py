@@ -153,6 +153,10 @@ class AssociationParams:
     # the map, not a change (bomc_bt.first_seen). About half an object's depth: a door's
     # centre lies in its wall, a table's beyond the near edge the camera saw
     first_seen_margin: float = 0.3
+    # [m] a new node this near where the previous pass detected an object of its category is
+    # "first_seen", not "added": the object was there, the map had folded it into a neighbour
+    # or removed it (bomc_bt.sightings). Under an object's size; 0: off
+    sighting_radius: float = 0.35
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -186,6 +190,8 @@ class AssociationParams:
             raise ValueError("readd_confidence must be in [0, 1]")
         if not 0.0 <= self.first_seen_margin <= 10.0:
             raise ValueError("first_seen_margin must be in [0, 10] m")
+        if not 0.0 <= self.sighting_radius <= 2.0:
+            raise ValueError("sighting_radius must be in [0, 2] m")
 
     def distance(self, category: str) -> float:
         """delta_c: the association distance of ``category``."""

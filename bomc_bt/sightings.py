@@ -1,0 +1,86 @@
+"""Where a pass detected objects of each category: the evidence that an object was there.
+
+A node the map adds in pass N is a change only if the object was not there at pass N-1.
+Where pass N-1 looked and saw nothing, it was not (:mod:`bomc_bt.first_seen`). But pass
+N-1 may also have *detected* the object and still left no node for it: it folded the views
+into a neighbouring chair 0.8 m away, dropped a first sighting that was not confirmed in
+time, or removed the node after a run of missed detections. On an Environment-A-size
+floor most of session 2's phantom additions were such objects (issue 17): the chairs pass
+1 had merged or wrongly removed, found again. An operator told "a chair was added here"
+goes to look at a chair that stood there all along.
+
+So every pass records where its detections put objects, per category: the map cell of
+each observation's centre (``Perception.sightings``), saved per session in the store's
+``progress`` table under ``sightings/<n>`` ({category: packed mask}) with the coverage
+masks (each waypoint's commit and the session's end; :mod:`bomc_bt.pass_resume`). The
+next pass's :class:`~bomc_bt.first_seen.SeenBefore` calls a new node that stands within
+``association.sighting_radius`` of a previous-pass sighting of its category *first seen*
+(new to the map, not a change), and says why in the event's detail
+(``{"first_seen": true, "sighted_in": N-1}``).
+
+Only the previous recorded pass counts: a chair seen in pass 1, taken away before pass 2
+(which saw the place empty) and brought back before pass 3 *was* added for pass 3. A true
+addition that lands where the previous pass saw another object of its category (within
+the radius, less than an object's size) is the price: it is not reported.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.pass_resume import pack_mask, unpack_mask
+
+
+class Sightings:
+    """Per category, the map cells the centres of a pass's observations fell in."""
+
+    def __init__(self, grid: OccupancyGrid):
+        self.grid = grid
+        self.masks: dict[str, np.ndarray] = {}
+        self.since: list[list] = []  # [category, x, y] since the last snapshot (a resume point's part)
+
+    def add(self, observations: Iterable) -> None:
+        """Mark each observation's cell in its category's mask."""
+        for o in observations:
+            x, y = float(o.position[0]), float(o.position[1])
+            if self._mark(str(o.category), x, y):
+                self.since.append([str(o.category), round(x, 3), round(y, 3)])
+
+    def add_points(self, points: Iterable[Iterable]) -> None:
+        """Marks from a resume point's ``[category, x, y]`` list."""
+        points = [list(p) for p in points]
+        for category, x, y in points:
+            self._mark(str(category), float(x), float(y))
+        self.since = points
+
+    def _mark(self, category: str, x: float, y: float) -> bool:
+        rows, cols = self.grid.world_to_cell(np.array([x]), np.array([y]))
+        if not self.grid.in_bounds(rows, cols)[0]:
+            return False
+        mask = self.masks.get(category)
+        if mask is None:
+            mask = self.masks[category] = np.zeros(self.grid.data.shape, dtype=bool)
+        if mask[rows[0], cols[0]]:
+            return False
+        mask[rows[0], cols[0]] = True
+        return True
+
+    def packed(self) -> dict[str, str]:
+        """{category: packed mask}: the value saved under
+        :func:`~bomc_bt.pass_resume.sightings_key`."""
+        return {category: pack_mask(mask) for category, mask in sorted(self.masks.items())}
+
+    def restore(self, saved: Mapping[str, str]) -> None:
+        """Put back a snapshot saved by :meth:`packed` (a resumed pass)."""
+        self.masks = {str(c): unpack_mask(text, self.grid.data.shape).astype(bool) for c, text in saved.items()}
+
+
+def unpack_sightings(saved, shape: tuple[int, int]) -> dict[str, np.ndarray] | None:
+    """A saved ``sightings/<n>`` value as {category: bool mask}; None when it is not one
+    (a pass recorded before sightings were saved), ValueError when a mask does not fit."""
+    if not isinstance(saved, dict):
+        return None
+    return {str(c): unpack_mask(text, shape).astype(bool) for c, text in saved.items()}

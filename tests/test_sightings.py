@@ -1,0 +1,131 @@
+"""Sightings (issue 17): a node new in pass N where pass N-1 had detected an object of its
+category is new to the map, not an addition: the object stood there, pass N-1 folded it
+into a neighbour or removed it."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bomc_bt.change_evaluation import reported_changes, score_changes, true_changes
+from bomc_bt.errors import BomcError
+from bomc_bt.first_seen import FIRST_SEEN, SIGHTED_IN, SeenBefore, load_seen_before
+from bomc_bt.graph import Event
+from bomc_bt.grid import OccupancyGrid, inflate_mask
+from bomc_bt.pass_resume import coverage_key, pack_mask, sightings_key
+from bomc_bt.sightings import Sightings
+from bomc_bt.store import SiteStore
+
+
+def grid_10m() -> OccupancyGrid:
+    return OccupancyGrid(np.zeros((100, 100), dtype=np.int8), 0.1, (0.0, 0.0))
+
+
+def obs(x: float, y: float = 5.0, cat: str = "chair"):
+    return SimpleNamespace(category=cat, position=np.array([x, y, 0.4]))
+
+
+def added(i: int, x: float, cat: str = "chair", session: int = 2) -> Event:
+    return Event("added", i, cat, np.array([x, 5.0, 0.4]), session, 10.0 + i)
+
+
+def sighted_at(grid: OccupancyGrid, *points, radius: float = 0.35) -> dict[str, np.ndarray]:
+    s = Sightings(grid)
+    s.add(obs(x, cat=c) for c, x in points)
+    return {c: inflate_mask(m, radius / grid.resolution) for c, m in s.masks.items()}
+
+
+def store_with(path: Path, sightings: dict[int, Sightings | None], grid: OccupancyGrid) -> SiteStore:
+    """Sessions that saw the whole floor and saved the given sightings (None: none saved)."""
+    store = SiteStore(path)
+    everything = np.ones(grid.data.shape, dtype=np.uint8)
+    for n, s in sightings.items():
+        store.begin_session(n, {"stamp": 0.0})
+        saved = {coverage_key(n): pack_mask(everything)}
+        if s is not None:
+            saved[sightings_key(n)] = s.packed()
+        store.end_session(n, "succeeded", {"stamp": 1.0}, (), saved)
+    return store
+
+
+def test_a_new_node_where_the_previous_pass_detected_its_category_is_first_seen():
+    grid = grid_10m()
+    seen = SeenBefore(grid, np.ones(grid.data.shape, dtype=bool), sighted_at(grid, ("chair", 2.0)), 1)
+    events = [added(1, 2.2), added(2, 3.0), added(3, 2.0, cat="table")]
+    assert seen.mark(events) == 1
+    assert events[0].detail == {FIRST_SEEN: True, SIGHTED_IN: 1}  # within the radius: the chair was there
+    assert events[1].detail is None and events[2].detail is None  # 1 m off; another category
+
+
+def test_the_evaluation_no_longer_calls_a_chair_the_map_had_merged_a_phantom_addition():
+    """Pass 1 detected two chairs 0.8 m apart but kept one node; pass 2 gives the second its
+    own node. Nothing changed in the building: without the sighting that is a phantom."""
+    d07 = lambda _c: 0.7  # noqa: E731
+    grid = grid_10m()
+    history = [added(0, 2.0, session=1), added(1, 2.8)]
+    chairs = {"a": ("chair", np.array([2.0, 5.0, 0.4])), "b": ("chair", np.array([2.8, 5.0, 0.4]))}
+    truth = true_changes(chairs, chairs, d07)
+    plain = score_changes(truth, reported_changes(history, 1, d07), d07, 2, 1)
+    assert (plain.overall.fp, plain.phantom) == (1, 1)
+    SeenBefore(grid, np.ones(grid.data.shape, dtype=bool), sighted_at(grid, ("chair", 2.0), ("chair", 2.8)), 1) \
+        .mark(history[1:])
+    marked = score_changes(truth, reported_changes(history, 1, d07), d07, 2, 1)
+    assert (marked.overall.fp, marked.phantom) == (0, 0)
+
+
+def test_only_the_previous_pass_counts_and_a_place_it_saw_empty_is_an_addition(tmp_path):
+    """A chair seen in pass 1, gone in pass 2 (which saved its sightings: none there), back
+    for pass 3: added. With pass 2 still seeing it there, pass 3's new node is first seen."""
+    grid = grid_10m()
+    one, two = Sightings(grid), Sightings(grid)
+    one.add([obs(2.0)])
+    with store_with(tmp_path / "site.db", {1: one, 2: two}, grid) as store:
+        seen = load_seen_before(store, 3, grid, 0.3, 0.35)
+        assert seen.sighted_in == 2 and seen.sighted == {}
+        events = [added(1, 2.0, session=3)]
+        assert seen.mark(events) == 0 and events[0].detail is None
+        assert load_seen_before(store, 3, grid, 0.3, 0.0).sighted == {}  # radius 0: off
+        seen_2 = load_seen_before(store, 2, grid, 0.3, 0.35)
+        assert seen_2.sighted_in == 1 and seen_2.saw(np.array([2.3, 5.0]), seen_2.sighted["chair"])[0]
+
+
+def test_a_pass_that_saved_no_sightings_marks_nothing_by_them(tmp_path):
+    grid = grid_10m()
+    with store_with(tmp_path / "site.db", {1: None}, grid) as store:  # a site from before sightings
+        seen = load_seen_before(store, 2, grid, 0.3, 0.35)
+        events = [added(1, 2.0)]
+        assert seen.sighted == {} and seen.mark(events) == 0
+
+
+def test_corrupt_sightings_are_one_line_naming_the_key(tmp_path):
+    grid = grid_10m()
+    one = Sightings(grid)
+    one.add([obs(2.0)])
+    store_with(tmp_path / "site.db", {1: one}, grid).close()
+    with sqlite3.connect(tmp_path / "site.db") as con:
+        con.execute("UPDATE progress SET value=? WHERE key='sightings/1'", (json.dumps({"chair": "not base64!"}),))
+    with SiteStore(tmp_path / "site.db", readonly=True) as store, pytest.raises(BomcError) as err:
+        load_seen_before(store, 2, grid, 0.3, 0.35)
+    assert err.value.field == "progress.sightings/1" and "corrupt site store" in str(err.value)
+
+
+def test_a_resumed_pass_has_the_sightings_of_its_snapshot_and_of_the_frames_after_it():
+    grid = grid_10m()
+    before = Sightings(grid)
+    before.add([obs(2.0), obs(4.0, cat="table")])
+    snapshot = before.packed()
+    before.since = []
+    before.add([obs(6.0), obs(6.01), obs(50.0)])  # the same cell twice; off the map: not kept
+    assert before.since == [["chair", 6.0, 5.0]]
+    resumed = Sightings(grid)
+    resumed.restore(snapshot)
+    resumed.add_points(before.since)
+    assert sorted(resumed.masks) == ["chair", "table"]
+    for c in resumed.masks:
+        assert np.array_equal(resumed.masks[c], before.masks[c])
+    assert resumed.since == before.since
