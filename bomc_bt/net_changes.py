@@ -6,7 +6,7 @@ now from before. :func:`net_changes` replays the history to both ends of a perio
 compares each node that had an event in it:
 
 * absent -> present: ``added``; present -> absent: ``removed`` (at its last position);
-  present -> present farther than ``threshold(category)``: ``moved``;
+  present -> present farther than ``threshold(category)`` along the floor: ``moved``;
 * anything else (removed and found again, moved away and back, a nudge) is no change;
 * a node folded into another as a duplicate (a removal with ``merged_into``) is no change
   either: the object is still there, under the other node's id;
@@ -128,7 +128,9 @@ def net_changes(events: Sequence[Event], since: int | None,
         pos = np.asarray(a.position, dtype=float)
         if was and now:
             old = np.asarray(b.position, dtype=float)
-            distance = float(np.linalg.norm(pos - old))
+            # along the floor: a centroid's height follows how much of the object the camera
+            # saw (a door's top cut off by the image edge), not where the object stands
+            distance = float(np.hypot(*(pos[:2] - old[:2])))
             if distance > threshold(a.category):
                 out.append(NetChange("moved", nid, a.category, old, pos, distance, None, None, a.session,
                                      a.stamp, counts[nid]))

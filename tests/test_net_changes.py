@@ -102,3 +102,13 @@ def test_a_version_2_store_is_read_as_it_is_and_upgraded_by_a_writer(tmp_path):
         assert [(e.node_id, e.misses) for e in store.events()] == [(0, None), (1, 5)]
     with sqlite3.connect(path) as con:
         assert con.execute("SELECT version FROM schema_version").fetchone()[0] == store_schema.SCHEMA_VERSION
+
+
+def test_a_door_whose_centroid_only_sank_has_not_moved():
+    """A door's centroid height follows how much of it the camera saw (its top cut off by
+    the image edge): 0.65 m lower and 0.4 m along the wall is the same door, not a move."""
+    door_1 = Event("added", 7, "door", np.array([25.41, 23.97, 1.25]), 1, 5.0)
+    door_2 = Event("updated", 7, "door", np.array([25.0, 24.03, 0.6]), 2, 9.0)
+    assert net_changes([door_1, door_2], 1, d07) == []
+    away = Event("updated", 7, "door", np.array([24.6, 24.03, 1.25]), 2, 9.0)  # 0.81 m along the floor
+    assert kinds(net_changes([door_1, away], 1, d07)) == [("moved", 7)]
