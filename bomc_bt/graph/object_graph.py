@@ -147,6 +147,7 @@ class ObjectGraph:
         (:mod:`bomc_bt.pass_resume`)."""
         tentative = getattr(self.policy, "tentative", None)
         extents = getattr(self.policy, "extents", None)
+        co_observed = getattr(self.policy, "co_observed", None)
         return {
             "session": self._session,
             "last_seen": {str(i): n.last_seen for i, n in self.nodes.items() if n.last_seen is not None},
@@ -156,6 +157,7 @@ class ObjectGraph:
             "gates": {str(i): g for i in self.nodes if (g := self.index.gate_of(i)) > 0.0},
             "tentative": None if tentative is None else tentative.to_json(),
             "extents": None if extents is None else extents.to_json(),
+            "co_observed": None if co_observed is None else co_observed.to_json(),
         }
 
     def restore_pass_state(self, state: dict, removed: dict[int, Node]) -> None:
@@ -175,6 +177,9 @@ class ObjectGraph:
         extents = getattr(self.policy, "extents", None)
         if extents is not None and state.get("extents") is not None:
             extents.restore(state["extents"])
+        co_observed = getattr(self.policy, "co_observed", None)
+        if co_observed is not None and state.get("co_observed") is not None:
+            co_observed.restore(state["co_observed"])
 
     # ---------------------------------------------------------------- mutations
     def insert(self, node: Node) -> None:

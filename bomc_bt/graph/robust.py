@@ -52,6 +52,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bomc_bt.graph.association import near_any
+from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.extents import NodeExtents
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.tentative import TentativeSightings
@@ -70,6 +71,7 @@ class RobustPolicy:
         self.vertical_weight = params.vertical_weight
         self.extents = NodeExtents(params)
         self.tentative = TentativeSightings(params, np.array([1.0, 1.0, params.vertical_weight]))
+        self.co_observed = CoObserved()  # nodes one frame matched as two objects (never folded)
 
     def gate(self, o: Observation) -> float:
         """delta_c, widened by a large object's own spread (capped at ``extent_gate`` * delta_c).
@@ -86,6 +88,7 @@ class RobustPolicy:
     ) -> list[Event]:
         """Match, refresh, count misses, place the unmatched, fold hidden duplicates."""
         self.tentative.begin(session)
+        self.co_observed.begin(session)
         weights = dict(zip(expected, miss_weights, strict=True)) if miss_weights is not None else {}
         obs, exp = observations, graph.begin(session, expected)
         events: list[Event] = []
@@ -104,6 +107,8 @@ class RobustPolicy:
             matched_obs.add(j)
             footprints[vid] = graph.nodes[vid].footprint
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
+        self.co_observed.note((graph.nodes[v] for v in matched_nodes if v in graph.nodes),
+                              self.params.extent_gate * self.params.largest_distance())
         for vid in exp:
             if vid not in graph.nodes:  # an arrival an earlier miss in this loop folded into its moved node
                 continue
@@ -161,7 +166,8 @@ class RobustPolicy:
         other is removed. A node that was expected but unmatched and lies elsewhere is not
         touched: it may be a second object, and the miss count decides. Nor are two small
         nodes whose whole footprints lie apart (:meth:`NodeExtents.apart`): two chairs side by
-        side, which a view bleeding over both covers.
+        side, which a view bleeding over both covers; nor two nodes an earlier frame of the
+        pass matched at once (:mod:`bomc_bt.graph.co_observed`).
         """
         events: list[Event] = []
         best: dict[int, int] = {}
@@ -175,7 +181,7 @@ class RobustPolicy:
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
                 if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o) \
-                        or self.extents.apart(v, other, footprints.get(vid)):
+                        or self.extents.apart(v, other, footprints.get(vid)) or self.co_observed.seen_apart(vid, oid):
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
