@@ -20,7 +20,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.pass_resume import frame_progress
+from bomc_bt.pass_resume import ResumeText, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.looked import looked_polygon
@@ -312,6 +312,7 @@ seen before it is written. With a store, every frame
     frames: int = 0  # frames processed
     events: list = field(default_factory=list)  # every event of the pass, in order
     last_frame: FrameSeen | None = None  # the latest frame's detections, for the timeline
+    resume_text: ResumeText = field(default_factory=ResumeText, repr=False, compare=False)  # encodes the resume point
 
     def __post_init__(self, grid: OccupancyGrid) -> None:
         self.coverage = Coverage(grid, self.near_range)

@@ -32,6 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from bomc_bt.json_text import AppendOnlyJSON, EncodedJSON, dumps, encoded_object
+
 
 def resume_key(session: int) -> str:
     return f"resume/{session}"
@@ -70,8 +72,32 @@ def resume_point(perception, robot) -> dict[str, Any]:
 
 
 def frame_progress(perception, robot) -> dict[str, Any]:
-    """The progress keys a frame's commit writes."""
-    return {resume_key(perception.session): resume_point(perception, robot)}
+    """The progress keys a frame's commit writes: the resume point, already encoded
+    (:class:`ResumeText`; the same text :func:`resume_point` would be stored as)."""
+    return {resume_key(perception.session): perception.resume_text.encode(perception, robot)}
+
+
+class ResumeText:
+    """A pass's resume point as JSON text, each view polygon encoded once.
+
+    The point is written with every frame and carries every view polygon since the last
+    waypoint; encoding those lists anew each frame cost time growing with the frames
+    since the waypoint (:mod:`bomc_bt.json_text`). The text equals ``json.dumps`` of
+    :func:`resume_point` byte for byte (tests/test_json_text.py)."""
+
+    def __init__(self) -> None:
+        self.fov = AppendOnlyJSON()
+        self.looked = AppendOnlyJSON()
+
+    def encode(self, perception, robot) -> EncodedJSON:
+        checkpoint = getattr(robot, "checkpoint", None)
+        return encoded_object({
+            "robot": dumps(checkpoint() if callable(checkpoint) else None),
+            "graph": dumps(perception.graph.pass_state()),
+            "frames": dumps(perception.frames),
+            "fov_since": self.fov.text(perception.fov_since),
+            "looked_since": self.looked.text(perception.looked_since),
+        })
 
 
 def waypoint_progress(perception, robot) -> dict[str, Any]:

@@ -51,6 +51,8 @@ from bomc_bt.errors import BomcError
 from bomc_bt.graph import OPERATOR_KINDS, PRESENT, AssociationParams, Event, Node, ObjectGraph
 from bomc_bt.graph.history import replay_graph  # also what readers of the central store replay
 from bomc_bt.graph.operator_edits import OperatorEdits
+from bomc_bt.json_text import EncodedJSON
+from bomc_bt.json_text import to_jsonable as _jsonable
 from bomc_bt.store_schema import (
     EVENT_COLUMNS,
     NODE_COLUMNS,
@@ -222,7 +224,7 @@ class SiteStore:
             self._reconcile(db, number, stamp)
             db.executemany("INSERT OR REPLACE INTO region_passes VALUES (?, ?, ?, ?, ?, ?, ?)", regions)
             for key, value in (progress or {}).items():
-                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
+                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, _progress_text(value)))
             counts = dict(db.execute(
                 f"SELECT kind, COUNT(*) FROM node_history WHERE session=? AND kind NOT IN {_OPERATOR_SQL}"
                 " GROUP BY kind", (number,)
@@ -291,7 +293,7 @@ class SiteStore:
                      *box),
                 )
             for key, value in (progress or {}).items():
-                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
+                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, _progress_text(value)))
 
     def load_graph(self, params: AssociationParams) -> ObjectGraph:
         """The live graph (present nodes) with the operator's edits it must respect; new ids
@@ -370,7 +372,7 @@ class SiteStore:
     def set_progress(self, key: str, value: Any) -> None:
         """Store a JSON-able value (e.g. the next waypoint index) for resuming."""
         with self._transaction("set_progress") as db:
-            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, json.dumps(value, default=_jsonable)))
+            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, _progress_text(value)))
 
     def get_progress(self, key: str, default: Any = None) -> Any:
         rows = self._query("SELECT value FROM progress WHERE key=?", (key,), "J", "progress")
@@ -392,9 +394,7 @@ def _opt_float(value: Any) -> float | None:
     return None if value is None else float(value)
 
 
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return str(value)
+def _progress_text(value: Any) -> str:
+    """A progress value as stored: JSON, or the text of one already encoded (a pass's
+    resume point, :mod:`bomc_bt.json_text`)."""
+    return value.text if isinstance(value, EncodedJSON) else json.dumps(value, default=_jsonable)

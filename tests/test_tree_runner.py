@@ -142,3 +142,28 @@ def test_a_run_starts_with_the_leaves_keys_unset_whatever_an_earlier_run_left(tm
     TreeRunner(build(tmp_path, robot), robot).run()
     assert py_trees.blackboard.Blackboard.get("/count") == 1  # counted from scratch
     assert py_trees.blackboard.Blackboard.get("/unrelated") == "kept"
+
+
+
+class CountingVisitor(py_trees.visitors.VisitorBase):
+    """Counts the nodes the tree hands it (all of them each tick: a full visitor)."""
+
+    def __init__(self):
+        super().__init__(full=True)
+        self.visits = 0
+
+    def run(self, behaviour):
+        self.visits += 1
+
+
+def test_a_visitor_or_tick_handler_on_the_tree_still_sees_every_tick(tmp_path):
+    """The runner ticks the root directly only when nothing is attached to the tree."""
+    robot = FakeRobot(dt=1.0)
+    runner = TreeRunner(build(tmp_path, robot), robot)
+    visitor = CountingVisitor()
+    runner.tree.add_visitor(visitor)
+    handled = []
+    runner.tree.add_post_tick_handler(lambda tree: handled.append(tree.count))
+    result = runner.run()
+    assert result.ticks == 4 and handled == [0, 1, 2, 3] and runner.tree.count == 4
+    assert visitor.visits == 4 * len(list(runner.root.iterate()))  # 3 nodes, every tick

@@ -27,9 +27,10 @@ import cv2
 import numpy as np
 
 from bomc_bt.exploration.blacklist import Blacklist
+from bomc_bt.exploration.decision_cache import DecisionCache
 from bomc_bt.exploration.dwfe import Choice, ExplorationParams, choose_frontier
 from bomc_bt.exploration.frontiers import Frontier, find_frontiers, touches_unknown
-from bomc_bt.exploration.gain import Standoffs, visible_unknown
+from bomc_bt.exploration.gain import visible_unknown
 from bomc_bt.exploration.gain_choice import Candidate, choose_by_gain
 from bomc_bt.exploration.progress import AreaWatch
 from bomc_bt.exploration.reachability import Reachability
@@ -98,6 +99,8 @@ class Explorer:
         self.unreachable: list[Frontier] = []
         self.area = AreaWatch(params.no_progress_time, params.min_progress_area, start_time)
         self.trail = Trail()
+        # standoff goals and gains kept across decisions, per reachable-area radius (decision_cache)
+        self._caches: dict[float, DecisionCache] = {}
 
     def time_up(self, now: float) -> bool:
         return self.max_time is not None and now - self.start_time >= self.max_time
@@ -160,7 +163,7 @@ class Explorer:
         far = [c for c in candidates if math.dist(c.goal, robot_xy) >= self.min_goal_distance]
         if self.params.explorer == "gain":
             return choose_by_gain(grid, far, robot_xy, reach, self.params, self.blacklist, self._last_anchor,
-                                  self._yaw)
+                                  self._yaw, gain_of=self._cache(reach).gains)
         choice = choose_frontier([c.frontier for c in far], robot_xy, self.params, self.blacklist)
         return choice, next((c for c in far if c.frontier is choice.frontier), None)
 
@@ -201,19 +204,29 @@ class Explorer:
         passage) falls back to its own cell nearest the centroid that the robot fits on.
         """
         found = find_frontiers(grid, robot_xy, min_size=self.params.min_size_cells(grid.resolution))
-        distance = obstacle_distance(grid)
         if reach is None:
+            distance = obstacle_distance(grid)
             self.frontiers, self.unreachable = found, []
             return [_plain(f, frontier_target(grid, f, distance, self.clearance)) for f in found]
         reachable, self.unreachable = reach.split(found)
         self.frontiers = [f for f, _ in reachable]
-        standoffs = Standoffs(grid, reach, self.clearance, self.params.max_standoff)
-        out = []
+        cache = self._cache(reach)
+        cache.update(grid, reach)
+        out, distance = [], None
         for f, ok in reachable:
-            safe = standoffs.goal(f)
+            safe = cache.standoff(f)
+            if safe is None and distance is None:
+                distance = obstacle_distance(grid)  # only the fallback needs it
             out.append(Candidate(f, *safe) if safe is not None
                        else _plain(f, frontier_target(grid, f, distance, self.clearance, ok)))
         return out
+
+    def _cache(self, reach: Reachability) -> DecisionCache:
+        """The decision cache of ``reach``'s radius (the planner's, or the squeeze radius)."""
+        radius = reach.params.robot_radius
+        if radius not in self._caches:
+            self._caches[radius] = DecisionCache(self.clearance, self.params.max_standoff, self.params.gain_radius)
+        return self._caches[radius]
 
     def _backout(self, robot_xy, now: float, reach: Reachability | None) -> Goal | None:
         accept = reach.contains if reach is not None else None

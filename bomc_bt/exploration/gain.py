@@ -141,22 +141,24 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
     start = _start(comp, reach, robot_xy)
     if start is None or not goals:
         return out
-    targets: dict[int, list[int]] = {}
+    wp = w + 2
+    targets: dict[int, list[int]] = {}  # goals by their cell's index on the padded grid
     for i, (r, c) in enumerate(cells):
         if 0 <= r < h and 0 <= c < w:
-            targets.setdefault(r * w + c, []).append(i)
+            targets.setdefault((r + 1) * wp + c + 1, []).append(i)
     open_goals = np.ones(len(goals), dtype=bool)
+    still_open = len(goals)  # open_goals.sum(), kept as a count: the loop tests it at every cell
     best, next_check = -math.inf, 0.0
-    wp = w + 2
     ok = np.pad(comp, 1, constant_values=False).ravel().tolist()
     moves = ((1, 1.0), (-1, 1.0), (wp, 1.0), (-wp, 1.0), (wp + 1, _SQRT2), (wp - 1, _SQRT2),
              (-wp + 1, _SQRT2), (-wp - 1, _SQRT2))
     s = (start[0] + 1) * wp + start[1] + 1
     dist = {s: 0.0}
     heap = [(0.0, s)]
-    while heap and open_goals.any():
-        d, i = heapq.heappop(heap)
-        if d > dist.get(i, math.inf):
+    pop, push, known, inf = heapq.heappop, heapq.heappush, dist.get, math.inf  # locals: the loop is hot
+    while heap and still_open:
+        d, i = pop(heap)
+        if d > known(i, inf):
             continue
         metres = d * res
         if best > -math.inf and metres >= next_check:
@@ -165,19 +167,20 @@ def path_distances(reach: Reachability, robot_xy: tuple[float, float], goals: li
             if bound.max() <= best:
                 heapq.heappush(heap, (d, i))
                 break
-        for k in targets.get((i // wp - 1) * w + (i % wp - 1), ()):
+        for k in targets.get(i, ()):
             out[k] = max(metres, straight[k] - res)
             if heading is not None:
                 out[k] += heading.turn_cost(_first_leg(dist, i, s, wp, moves, heading.lead / res), res, wp)
+            still_open -= bool(open_goals[k])
             open_goals[k] = False
             best = max(best, value[k] / (out[k] + offset))
         for step, length in moves:
             j = i + step
             if ok[j]:
                 nd = d + length
-                if nd < dist.get(j, math.inf):
+                if nd < known(j, inf):
                     dist[j] = nd
-                    heapq.heappush(heap, (nd, j))
+                    push(heap, (nd, j))
     for k in np.flatnonzero(open_goals):
         out[k] = max(out[k], heap[0][0] * res) if heap else math.inf
     return out

@@ -20,7 +20,10 @@ add a meaningful area, so no robot time is spent on it.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+
+import numpy as np
 
 from bomc_bt.algorithm_params import ExplorationParams
 from bomc_bt.exploration.blacklist import Blacklist
@@ -45,16 +48,21 @@ class Candidate:
 def choose_by_gain(grid: OccupancyGrid, candidates: list[Candidate], robot_xy: tuple[float, float],
                    reach: Reachability, params: ExplorationParams, blacklist: Blacklist,
                    previous_anchor: tuple[float, float] | None,
-                   robot_yaw: float | None = None) -> tuple[Choice, Candidate | None]:
+                   robot_yaw: float | None = None,
+                   gain_of: Callable[[list[tuple[float, float]]], np.ndarray] | None = None,
+                   ) -> tuple[Choice, Candidate | None]:
     """The best candidate by gain per metre, or a termination with the reason; with
-    ``robot_yaw`` a goal's metres include the turn on the spot before its path."""
+    ``robot_yaw`` a goal's metres include the turn on the spot before its path.
+    ``gain_of`` gives :func:`.gain.visible_unknown` of goals at ``gain_radius`` on ``grid``
+    (default: computed here; the explorer passes its :class:`.decision_cache.DecisionCache`)."""
     if not candidates:
         return Choice(None, "none", math.inf, "no frontiers left"), None
     allowed = set(map(id, blacklist.filter([c.frontier for c in candidates])))
     open_ = [c for c in candidates if id(c.frontier) in allowed]
     if not open_:
         return Choice(None, "none", math.inf, f"all {len(candidates)} remaining frontier(s) are blacklisted"), None
-    gains = visible_unknown(grid, [c.goal for c in open_], params.gain_radius)
+    goals = [c.goal for c in open_]
+    gains = gain_of(goals) if gain_of is not None else visible_unknown(grid, goals, params.gain_radius)
     for c, g in zip(open_, gains, strict=True):
         c.gain = float(g)
     worth = [c for c in open_ if c.gain >= params.min_gain]

@@ -16,19 +16,23 @@ relocalization in flight (a pass commits only once localized).
 
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 import numpy as np
 
 from bomc_bt.geometry import Pose2D
+from bomc_bt.pass_resume import pack_mask
 from bomc_bt.sim.navigation import NavHandle
+from bomc_bt.sim.tiled_mask import TiledMaskText, decode
 
 
 def robot_state(robot) -> dict[str, Any]:
     """``robot`` (a :class:`~bomc_bt.sim.robot.SimRobot`) at this step, JSON-able."""
     t = robot._true
     layer = robot._obstacles
-    obstacles = None if layer is None else {"mask": layer.packed(), "version": int(layer.version)}
+    obstacles = None if layer is None else {**_tiles_of(layer).encode(layer.mask, layer.version),
+                                            "version": int(layer.version)}
     return {
         "kind": "sim",
         "session": robot.session,
@@ -88,6 +92,15 @@ def _restore_navigation(robot, saved: dict[str, Any] | None) -> None:
 
 
 _STREAMS = ("_nav_rng", "_noise_rng", "_reloc_rng")
+_TILED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # obstacle layer -> its TiledMaskText
+
+
+def _tiles_of(layer) -> TiledMaskText:
+    """The tile encoder of ``layer``'s mask, kept while the layer lives: a checkpoint is
+    saved with every frame, and only the tiles a scan changed are compressed again."""
+    if layer not in _TILED:
+        _TILED[layer] = TiledMaskText()
+    return _TILED[layer]
 
 
 def _pose(p: Pose2D) -> list[float]:
@@ -115,7 +128,10 @@ def restore_robot(robot, state: dict[str, Any]) -> None:
     robot.people.headings = np.asarray(people["headings"], dtype=float).reshape(-1, 2)
     saved = state.get("obstacles")
     if saved is not None and robot._obstacles is not None:
-        robot._obstacles.load(saved["mask"], saved["version"])
+        layer = robot._obstacles
+        # "mask": the whole mask packed (checkpoints saved before the tiles)
+        packed = saved["mask"] if "mask" in saved else pack_mask(decode(saved, layer.mask.shape))
+        layer.load(packed, saved["version"])
         robot.planners.use_map(robot._map, robot._obstacles)
     for name, value in state["rng"].items():
         if name in _STREAMS:

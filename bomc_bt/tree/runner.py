@@ -85,6 +85,19 @@ class TreeRunner:
                 for key in node.keys.values():
                     py_trees.blackboard.Blackboard.unset(key)
 
+    def _tick(self) -> None:
+        """``self.tree.tick()``: without visitors or tick handlers (this runner adds none),
+        only the root's tick and the count. py_trees walks the whole tree after every
+        tick to visit it even with no visitor: 30 million generator steps in a 50 x 45 m
+        pass, 3 % of its wall time, for nothing."""
+        tree = self.tree
+        if tree.visitors or tree.pre_tick_handlers or tree.post_tick_handlers:
+            tree.tick()
+            return
+        for _ in self.root.tick():
+            pass
+        tree.count += 1
+
     def run(self) -> RunResult:
         """Set the tree up and tick it until it ends; always leaves no leaf running."""
         self.tree.setup()
@@ -93,7 +106,7 @@ class TreeRunner:
         status, reason = Status.INVALID, "stopped"
         try:
             while True:
-                self.tree.tick()
+                self._tick()
                 self.ticks += 1
                 for hook in self.hooks:
                     hook(self)
