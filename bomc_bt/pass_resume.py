@@ -88,6 +88,7 @@ class ResumeText:
     def __init__(self) -> None:
         self.fov = AppendOnlyJSON()
         self.looked = AppendOnlyJSON()
+        self.sighted = AppendOnlyJSON()
 
     def encode(self, perception, robot) -> EncodedJSON:
         checkpoint = getattr(robot, "checkpoint", None)
@@ -97,6 +98,7 @@ class ResumeText:
             "frames": dumps(perception.frames),
             "fov_since": self.fov.text(perception.fov_since),
             "looked_since": self.looked.text(perception.looked_since),
+            "sighted_since": self.sighted.text(perception.sightings.since),
         })
 
 
