@@ -71,7 +71,8 @@ def rasterise(scan: LaserScan, pose: Pose2D, grid: OccupancyGrid, free_range: fl
     h, w = r1 - r0, c1 - c0
     # Half a cell short of a return (the range noise), then a tenth of a cell inset.
     ends_on_surface = finite & (ranges <= free_range)
-    dx, dy = free_outline(reach - np.where(ends_on_surface, 0.5 * res, 0.0), cos, sin, 0.1 * res)
+    cleared = np.maximum(reach - np.where(ends_on_surface, 0.5 * res, 0.0), 0.0)
+    dx, dy = free_outline(cleared, cos, sin, 0.1 * res)
     outline = np.stack([pose.x + dx - ox, pose.y + dy - oy], axis=1) / res
     poly = np.concatenate([[[sx, sy]], outline]) - [c0 + 0.5, r0 + 0.5]
     free = np.zeros((h, w), dtype=np.uint8)
