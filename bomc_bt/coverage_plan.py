@@ -113,6 +113,10 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
     covered = en_route.copy()
     for i in chosen:
         covered[views[i]] = True
+    if params.drive_by and chosen:
+        chosen, credited, order, dist, covered = _look_near_at_nodes(planner, sight, nodes, start.xy, views, xy,
+                                                                     chosen, credited, order, dist, covered,
+                                                                     params, hfov)
     waypoints: list[Pose2D] = []
     stops: list[tuple[float, float]] = []
     at = np.asarray(start.xy, dtype=float)
@@ -157,6 +161,33 @@ def _drop_redundant(planner: GridPlanner, sight: Sight, nodes: KnownTargets, sta
     credited = [by_stop.get(t, np.zeros(0, dtype=np.int64)) for t in range(len(kept))]
     keep_rows = [0] + [rows[t + 1] for t in pruned.kept]
     return kept, credited, list(range(len(kept))), dist[np.ix_(keep_rows, keep_rows)], pruned.en_route
+
+
+def _look_near_at_nodes(planner: GridPlanner, sight: Sight, nodes: KnownTargets, start_xy, views: list[np.ndarray],
+                        xy: np.ndarray, chosen: list[int], credited: list[np.ndarray], order: list[int],
+                        dist: np.ndarray, covered: np.ndarray, params: TraversalParams, hfov: float, rounds: int = 3
+                        ) -> tuple[list[int], list[np.ndarray], list[int], np.ndarray, np.ndarray]:
+    """Stops added for the known nodes no stop or leg of the final tour sees from near.
+
+    The legs the cover credited (the first tour's) are not the final tour's, so a node seen
+    from near only on a leg that is gone would get no near look: each round adds the stops
+    that see such nodes (greedy, every node worth a stop), orders the tour again and
+    computes what its legs see. Returns chosen, credited, order, dist, and what stops and
+    legs see."""
+    node_views = [v[v >= nodes.n_floor] for v in views]
+    for _ in range(rounds):
+        extra, gained = greedy_cover(node_views, xy, nodes.n_targets, start_xy, params.stop_cost, 1, covered)
+        if not extra:
+            break
+        chosen, credited = chosen + extra, credited + gained
+        order, dist = tour_order(planner, start_xy, xy[chosen], params)
+        at = [np.asarray(start_xy, dtype=float)] + [xy[chosen[j]] for j in order]
+        paths = [_leg(planner, a, b) for a, b in zip(at[:-1], at[1:], strict=True)]
+        covered = np.zeros(nodes.n_targets, dtype=bool)
+        covered[nodes.along(sight, paths, params.drive_by_step, hfov)] = True
+        for i in chosen:
+            covered[views[i]] = True
+    return chosen, credited, order, dist, covered
 
 
 _LEG_MARGIN = 4.0  # m of map around a leg's two ends that its path is first searched in
