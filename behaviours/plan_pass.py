@@ -37,7 +37,12 @@ class PlanTraversalParams:
     clearance: float = 0.45  # [m] paper plan: waypoints closer to a wall are moved into the open
     view_range: float = 5.0  # [m] coverage plan: the camera's planned reach (projection.expect_range)
     close_range: float = 2.5  # [m] coverage plan: each known node is seen once from this near (miss_full_range)
+    known_radius: float = 0.5  # [m] coverage plan: floor this near a known node shows it (bomc_bt.coverage_known)
     budget: float = 0.0  # [s] robot time for the pass; 0: the configuration's budget.seconds (0 there: a full pass)
+
+    def __post_init__(self) -> None:
+        if not (self.close_range >= 0 and self.known_radius > 0):
+            raise ValueError("need close_range >= 0 and known_radius > 0")
 
 
 @register("PlanTraversal")
@@ -100,7 +105,7 @@ class PlanTraversal(Leaf):
         if ctx.config.traversal.plan == "coverage":
             covering = plan_coverage(ctx.robot.live_map(), ctx.robot.pose(), self.params.view_range,
                                      ctx.config.traversal, ctx.config.sim.planner, self.known_nodes(),
-                                     self.params.close_range)
+                                     self.params.close_range, self.params.known_radius)
             write_json(ctx.site.plan_json, covering.plan.to_json())
             return covering.plan
         grid = ctx.robot.live_map()

@@ -272,10 +272,6 @@ class TraversalParams:
     drive_by_step: float = 0.5  # [m] coverage plan: spacing of the views credited along the driven path
     drop_redundant: bool = True  # [bool] drive_by: drop stops whose floor the final tour's legs and other stops see
     closed_tour: bool = True  # [bool] coverage plan: order the tour from and back to the dock (else an open path)
-    # [m] coverage plan: floor within this of a known node (the graph's, when the pass is planned)
-    # shows the node; each node is looked at once from within projection.miss_full_range,
-    # where a miss counts fully, so a removal can be confirmed (bomc_bt.coverage_known)
-    known_radius: float = 0.5
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.spacing) and self.spacing > 0):
@@ -289,8 +285,6 @@ class TraversalParams:
             raise ValueError("need target_step, path_resolution, drive_by_step > 0 and candidate_step >= target_step")
         if self.clearance < 0 or self.min_range < 0 or self.shadow < 0 or self.stop_cost < 0 or self.min_gain < 0:
             raise ValueError("clearance, min_range, shadow, stop_cost and min_gain must be >= 0")
-        if not self.known_radius > 0:
-            raise ValueError("known_radius must be > 0")
         if not 0 < self.hfov_deg <= 360 or self.max_headings < 1:
             raise ValueError("need 0 < hfov_deg <= 360 and max_headings >= 1")
 
