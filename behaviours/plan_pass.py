@@ -11,11 +11,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 from py_trees.common import Status
 
 from bomc_bt.budget_pass import budget_key, last_full_pass_seconds, load_model, plan_budget_pass
 from bomc_bt.budget_plan import PassBudget
 from bomc_bt.coverage_plan import plan_coverage
+from bomc_bt.graph import PRESENT
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
 from bomc_bt.planner import GridPlanner
@@ -27,13 +29,20 @@ from bomc_bt.tree.registry import register
 from bomc_bt.viewpoints import GapParams, gap_viewpoints
 
 EXPECT_RANGE = "projection.expect_range"  # where a frame counts a miss: as far as a viewpoint plans to see
+MISS_FULL_RANGE = "projection.miss_full_range"  # where a miss counts fully: each known node is looked at from there
 
 
 @dataclass
 class PlanTraversalParams:
     clearance: float = 0.45  # [m] paper plan: waypoints closer to a wall are moved into the open
     view_range: float = 5.0  # [m] coverage plan: the camera's planned reach (projection.expect_range)
+    close_range: float = 2.5  # [m] coverage plan: each known node is seen once from this near (miss_full_range)
+    known_radius: float = 0.5  # [m] coverage plan: floor this near a known node shows it (bomc_bt.coverage_known)
     budget: float = 0.0  # [s] robot time for the pass; 0: the configuration's budget.seconds (0 there: a full pass)
+
+    def __post_init__(self) -> None:
+        if not (self.close_range >= 0 and self.known_radius > 0):
+            raise ValueError("need close_range >= 0 and known_radius > 0")
 
 
 @register("PlanTraversal")
@@ -45,7 +54,7 @@ class PlanTraversal(Leaf):
     of :mod:`bomc_bt.budget_pass` instead, which ends at the dock in time."""
 
     Params = PlanTraversalParams
-    config_params = {"view_range": EXPECT_RANGE}
+    config_params = {"view_range": EXPECT_RANGE, "close_range": MISS_FULL_RANGE}
 
     def update(self) -> Status:
         ctx = self.context
@@ -85,11 +94,18 @@ class PlanTraversal(Leaf):
         ctx.store.set_progress(budget_key(ctx.session), ctx.budget.to_json())
         return plan
 
+    def known_nodes(self) -> np.ndarray:
+        """(N, 2) positions of the graph's present nodes: each is to be seen once from near."""
+        graph = self.context.graph
+        nodes = [n.position[:2] for n in (graph.nodes.values() if graph is not None else ()) if n.state == PRESENT]
+        return np.array(nodes, dtype=float).reshape(-1, 2)
+
     def full_plan(self) -> TraversalPlan:
         ctx = self.context
         if ctx.config.traversal.plan == "coverage":
             covering = plan_coverage(ctx.robot.live_map(), ctx.robot.pose(), self.params.view_range,
-                                     ctx.config.traversal, ctx.config.sim.planner)
+                                     ctx.config.traversal, ctx.config.sim.planner, self.known_nodes(),
+                                     self.params.close_range, self.params.known_radius)
             write_json(ctx.site.plan_json, covering.plan.to_json())
             return covering.plan
         grid = ctx.robot.live_map()

@@ -12,6 +12,11 @@ e.g. to compare with the stops no longer dropped:
     python benchmarks/bench_coverage_plan.py --office 93x90:41 --office 36x28:7
     python benchmarks/bench_coverage_plan.py --office 93x90:41 --set drop_redundant=false
     python benchmarks/bench_coverage_plan.py --site /path/to/site --shared office-s --shared lab-b
+    python benchmarks/bench_coverage_plan.py --shared office-s --shared lab-b --known
+
+``--known`` gives the plan the world's objects as the graph's nodes (as a later session
+has them), each to be looked at once from within ``projection.miss_full_range``
+(bomc_bt/coverage_known.py); the ``near`` column counts the nodes so looked at.
 
 A real pass also sees floor while turning and drives smoother legs; Cover Gaps and the
 refresh tour come on top (``bomc monitor`` reports the whole pass).
@@ -40,6 +45,7 @@ from bomc_bt.grid import load_map
 from bomc_bt.planner import GridPlanner
 from bomc_bt.sight import Sight, along_paths
 from bomc_bt.viewpoints import floor_mask
+from bomc_bt.world import load_world
 
 
 def seen_share(grid, start: Pose2D, stops: list, params, planner_params, view_range: float) -> float:
@@ -72,7 +78,13 @@ def leg_length(grid, start: Pose2D, stops: list, planner_params) -> float:
     return total
 
 
-def floors(args, tmp: Path) -> list[tuple[str, Path, Pose2D]]:
+def world_objects(world_yaml: Path) -> np.ndarray:
+    """(N, 2) positions of a world's objects: the known nodes of ``--known``."""
+    world = load_world(world_yaml)
+    return np.array([o.position[:2] for o in world.objects.values()], dtype=float).reshape(-1, 2)
+
+
+def floors(args, tmp: Path) -> list[tuple[str, Path, Pose2D, np.ndarray | None]]:
     out = []
     for spec in args.office:
         size, seed = spec.split(":")
@@ -80,15 +92,17 @@ def floors(args, tmp: Path) -> list[tuple[str, Path, Pose2D]]:
         subprocess.run([sys.executable, "-m", "bomc_bt.cli", "world", "office", "--out", str(world), "--size", size,
                         "--seed", seed, "--force"], check=True, capture_output=True)
         data = yaml.safe_load(world.read_text())
-        out.append((f"office {size} s{seed}", tmp / data["map"], Pose2D(*data["start"][:2], 0.0)))
+        out.append((f"office {size} s{seed}", tmp / data["map"], Pose2D(*data["start"][:2], 0.0),
+                    world_objects(world) if args.known else None))
     shared = Path(os.environ.get("BOMC_SHARED", Path(__file__).resolve().parents[2] / "shared")) / "worlds"
     for name in args.shared:
         data = yaml.safe_load((shared / f"{name}.yaml").read_text())
-        out.append((name, shared / data["map"], Pose2D(*data["start"][:2], 0.0)))
+        out.append((name, shared / data["map"], Pose2D(*data["start"][:2], 0.0),
+                    world_objects(shared / f"{name}.yaml") if args.known else None))
     for site in args.site:
         with open(Path(site) / "trajectory.csv") as f:
             first = list(csv.reader(f))[1]
-        out.append((Path(site).name, Path(site) / "map.yaml", Pose2D(float(first[1]), float(first[2]), 0.0)))
+        out.append((Path(site).name, Path(site) / "map.yaml", Pose2D(float(first[1]), float(first[2]), 0.0), None))
     return out
 
 
@@ -98,6 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--shared", action="append", default=[], metavar="NAME", help="a shared world (office-s, lab-b)")
     ap.add_argument("--site", action="append", default=[], metavar="DIR", help="a saved site's folder")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a traversal parameter")
+    ap.add_argument("--known", action="store_true", help="the worlds' objects as known nodes, each looked at from near")
     args = ap.parse_args(argv)
     config = load_config([])
     changes = {}
@@ -107,17 +122,20 @@ def main(argv: list[str] | None = None) -> int:
         changes[key] = value.lower() in ("1", "true", "yes") if isinstance(current, bool) else type(current)(value)
     params = dataclasses.replace(config.traversal, **changes)
     reach = config.projection.expect_range
-    print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'plan cpu s':>10s}")
+    print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'plan cpu s':>10s} "
+          f"{'near':>9s}")
     with tempfile.TemporaryDirectory() as tmp:
-        for name, map_yaml, start in floors(args, Path(tmp)):
+        for name, map_yaml, start, known in floors(args, Path(tmp)):
             grid = load_map(map_yaml)
             began = time.process_time()
-            plan = plan_coverage(grid, start, reach, params, config.sim.planner)
+            plan = plan_coverage(grid, start, reach, params, config.sim.planner, known,
+                                 config.projection.miss_full_range)
             cpu = time.process_time() - began
             km = leg_length(grid, start, plan.viewpoints, config.sim.planner) / 1000
             seen = seen_share(grid, start, plan.viewpoints, params, config.sim.planner, reach)
             stops, headings = len(plan.viewpoints), len(plan.plan.waypoints)
-            print(f"{name:18s} {stops:6d} {headings:8d} {km:8.3f} {seen:10.3f} {cpu:10.1f}")
+            near = f"{plan.known_near}/{plan.known}"
+            print(f"{name:18s} {stops:6d} {headings:8d} {km:8.3f} {seen:10.3f} {cpu:10.1f} {near:>9s}")
     return 0
 
 

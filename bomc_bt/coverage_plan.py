@@ -45,12 +45,13 @@ import cv2
 import numpy as np
 
 from bomc_bt.algorithm_params import PlannerParams, TraversalParams
+from bomc_bt.coverage_known import KnownTargets, index_ranges
 from bomc_bt.coverage_prune import drop_redundant_stops
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.path_matrix import path_length_matrix
 from bomc_bt.planner import GridPlanner
-from bomc_bt.sight import Sight, along_paths, headings_for
+from bomc_bt.sight import Sight, headings_for
 from bomc_bt.traversal import TraversalPlan, or_opt_route, path_length, two_opt_route
 from bomc_bt.viewpoints import floor_mask
 
@@ -65,11 +66,19 @@ class CoveragePlan:
     seen_targets: int  # of them, seen by some candidate (reachable by sight)
     covered: np.ndarray = field(repr=False)  # (H, W) bool target raster: what the chosen stops see
     target_step: float = 0.25  # m between target samples (the raster's cell)
+    known: int = 0  # known nodes given
+    known_near: int = 0  # of them, seen from within close_range by a chosen stop or leg
+    known_unreachable: int = 0  # of them, seen from that near by no candidate (left to the far looks)
 
 
 def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params: TraversalParams | None = None,
-                  planner_params: PlannerParams | None = None) -> CoveragePlan:
-    """Viewpoints that see the floor, each with the headings to face, in tour order."""
+                  planner_params: PlannerParams | None = None, known: np.ndarray | None = None,
+                  close_range: float = 0.0, known_radius: float = 0.5) -> CoveragePlan:
+    """Viewpoints that see the floor, each with the headings to face, in tour order.
+
+    ``known`` (N, 2): the graph's nodes; each is also looked at once from within
+    ``close_range`` (``projection.miss_full_range``): a place sees it when it sees floor within
+    ``known_radius`` of it (:mod:`bomc_bt.coverage_known`)."""
     params = params or TraversalParams()
     planner = GridPlanner(grid, planner_params)
     k = max(1, int(round(params.target_step / grid.resolution)))
@@ -84,30 +93,37 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
     xy = _world(grid, places[:, 0] * k, places[:, 1] * k)
     min_count = max(1, int(math.ceil((params.min_gain / (k * grid.resolution)) ** 2 - 1e-9)))
     hfov = math.radians(params.hfov_deg)
-    chosen, credited = greedy_cover(views, xy, floor.size, start.xy, params.stop_cost, min_count)
+    nodes = KnownTargets.build(grid, sight, np.zeros((0, 2)) if known is None or close_range <= 0 else known,
+                               known_radius, close_range, min_count, params.min_range)
+    views = nodes.extend_views(views, xy)
+    n_targets = nodes.n_targets
+    chosen, credited = greedy_cover(views, xy, n_targets, start.xy, params.stop_cost, min_count)
     order, dist = tour_order(planner, start.xy, xy[chosen], params)
-    en_route = np.zeros(floor.size, dtype=bool)
+    en_route = np.zeros(n_targets, dtype=bool)
     if params.drive_by and chosen:
         # What the camera sees between stops, facing ahead, needs no stop: cover again with
         # it seen, which drops the stops (and headings) that only looked along corridors.
         stops = [np.asarray(start.xy, dtype=float)] + [xy[chosen[j]] for j in order]
         paths = [_leg(planner, a, b) for a, b in zip(stops[:-1], stops[1:], strict=True)]
-        en_route[along_paths(sight, paths, params.drive_by_step, hfov)] = True
-        chosen, credited = greedy_cover(views, xy, floor.size, start.xy, params.stop_cost, min_count, en_route)
+        en_route[nodes.along(sight, paths, params.drive_by_step, hfov)] = True
+        chosen, credited = greedy_cover(views, xy, n_targets, start.xy, params.stop_cost, min_count, en_route)
         order, dist = tour_order(planner, start.xy, xy[chosen], params)
         if params.drop_redundant and chosen:
-            chosen, credited, order, dist, en_route = _drop_redundant(planner, sight, start.xy, views, xy, chosen,
-                                                                      order, dist, params, hfov, min_count)
+            chosen, credited, order, dist, en_route = _drop_redundant(planner, sight, nodes, start.xy, views, xy,
+                                                                      chosen, order, dist, params, hfov, min_count)
     covered = en_route.copy()
     for i in chosen:
         covered[views[i]] = True
+    if params.drive_by and chosen:
+        chosen, credited, order, dist, covered = _look_near_at_nodes(planner, sight, nodes, start.xy, views, xy,
+                                                                     chosen, credited, order, dist, covered,
+                                                                     params, hfov)
     waypoints: list[Pose2D] = []
     stops: list[tuple[float, float]] = []
     at = np.asarray(start.xy, dtype=float)
     for j in order:
         p = xy[chosen[j]]
-        rows, cols = np.divmod(credited[j], floor.shape[1])
-        targets = _world(grid, rows * k, cols * k)
+        targets = nodes.target_xy(credited[j], lambda flat: _raster_world(grid, flat, floor.shape[1], k))
         bearings = np.arctan2(targets[:, 1] - p[1], targets[:, 0] - p[0])
         arrive = math.atan2(p[1] - at[1], p[0] - at[0]) if np.hypot(*(p - at)) > 1e-9 else start.yaw
         headings = headings_for(bearings, hfov, min_count, params.max_headings) or [arrive]
@@ -118,32 +134,61 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
     legs = [0] + [j + 1 for j in order]
     grid_length = float(sum(dist[a, b] for a, b in zip(legs[:-1], legs[1:], strict=True)))
     plan = TraversalPlan(waypoints, path_length(start.xy, pts), grid_length)
-    return CoveragePlan(plan, stops, int(floor.sum()), int(seeable.sum()), covered.reshape(floor.shape),
-                        k * grid.resolution)
+    near = covered[floor.size:].reshape(-1, min_count).any(axis=1)
+    return CoveragePlan(plan, stops, int(floor.sum()), int(seeable.sum()), covered[:floor.size].reshape(floor.shape),
+                        k * grid.resolution, len(near), int(near.sum()), int((~nodes.seeable(views)).sum()))
 
 
-def _drop_redundant(planner: GridPlanner, sight: Sight, start_xy, views: list[np.ndarray], xy: np.ndarray,
-                    chosen: list[int], order: list[int], dist: np.ndarray, params: TraversalParams, hfov: float,
-                    min_count: int) -> tuple[list[int], list[np.ndarray], list[int], np.ndarray, np.ndarray]:
+def _drop_redundant(planner: GridPlanner, sight: Sight, nodes: KnownTargets, start_xy, views: list[np.ndarray],
+                    xy: np.ndarray, chosen: list[int], order: list[int], dist: np.ndarray, params: TraversalParams,
+                    hfov: float, min_count: int
+                    ) -> tuple[list[int], list[np.ndarray], list[int], np.ndarray, np.ndarray]:
     """The tour less the stops its own legs and other stops see for (:mod:`bomc_bt.coverage_prune`);
     chosen, credited, order and dist as :func:`plan_coverage` keeps them, and what the legs see."""
     tour = [chosen[j] for j in order]
-    nodes = [np.asarray(start_xy, dtype=float)] + [xy[i] for i in tour]
+    at = [np.asarray(start_xy, dtype=float)] + [xy[i] for i in tour]
 
     def leg_sight(a: int, b: int) -> np.ndarray:
-        return along_paths(sight, [_leg(planner, nodes[a], nodes[b])], params.drive_by_step, hfov)
+        return nodes.along(sight, [_leg(planner, at[a], at[b])], params.drive_by_step, hfov)
 
     rows = [0] + [j + 1 for j in order]
-    pruned = drop_redundant_stops([views[i] for i in tour], dist[np.ix_(rows, rows)], sight.floor.size,
+    pruned = drop_redundant_stops([views[i] for i in tour], dist[np.ix_(rows, rows)], nodes.n_targets,
                                   leg_sight, min_count, params.closed_tour)
     kept = [tour[t] for t in pruned.kept]
     # Which stop faces which floor: each the floor it sees first in a cover of what is left.
-    picked, gained = greedy_cover([views[i] for i in kept], xy[kept], sight.floor.size, start_xy,
+    picked, gained = greedy_cover([views[i] for i in kept], xy[kept], nodes.n_targets, start_xy,
                                   params.stop_cost, 1, pruned.en_route)
     by_stop = dict(zip(picked, gained, strict=True))
     credited = [by_stop.get(t, np.zeros(0, dtype=np.int64)) for t in range(len(kept))]
     keep_rows = [0] + [rows[t + 1] for t in pruned.kept]
     return kept, credited, list(range(len(kept))), dist[np.ix_(keep_rows, keep_rows)], pruned.en_route
+
+
+def _look_near_at_nodes(planner: GridPlanner, sight: Sight, nodes: KnownTargets, start_xy, views: list[np.ndarray],
+                        xy: np.ndarray, chosen: list[int], credited: list[np.ndarray], order: list[int],
+                        dist: np.ndarray, covered: np.ndarray, params: TraversalParams, hfov: float, rounds: int = 3
+                        ) -> tuple[list[int], list[np.ndarray], list[int], np.ndarray, np.ndarray]:
+    """Stops added for the known nodes no stop or leg of the final tour sees from near.
+
+    The legs the cover credited (the first tour's) are not the final tour's, so a node seen
+    from near only on a leg that is gone would get no near look: each round adds the stops
+    that see such nodes (greedy, every node worth a stop), orders the tour again and
+    computes what its legs see. Returns chosen, credited, order, dist, and what stops and
+    legs see."""
+    node_views = [v[v >= nodes.n_floor] for v in views]
+    for _ in range(rounds):
+        extra, gained = greedy_cover(node_views, xy, nodes.n_targets, start_xy, params.stop_cost, 1, covered)
+        if not extra:
+            break
+        chosen, credited = chosen + extra, credited + gained
+        order, dist = tour_order(planner, start_xy, xy[chosen], params)
+        at = [np.asarray(start_xy, dtype=float)] + [xy[chosen[j]] for j in order]
+        paths = [_leg(planner, a, b) for a, b in zip(at[:-1], at[1:], strict=True)]
+        covered = np.zeros(nodes.n_targets, dtype=bool)
+        covered[nodes.along(sight, paths, params.drive_by_step, hfov)] = True
+        for i in chosen:
+            covered[views[i]] = True
+    return chosen, credited, order, dist, covered
 
 
 _LEG_MARGIN = 4.0  # m of map around a leg's two ends that its path is first searched in
@@ -164,6 +209,12 @@ def _leg(planner: GridPlanner, a: np.ndarray, b: np.ndarray) -> np.ndarray | Non
     rhi, chi = min(int(rhi) + 1, grid.height), min(int(chi) + 1, grid.width)
     path = GridPlanner(grid.crop(rlo, rhi, clo, chi), planner.params).plan(a, b)
     return path if path is not None else planner.plan(a, b)
+
+
+def _raster_world(grid: OccupancyGrid, flat: np.ndarray, width: int, k: int) -> np.ndarray:
+    """(M, 2) map points of flat target-raster indices."""
+    rows, cols = np.divmod(flat, width)
+    return _world(grid, rows * k, cols * k)
 
 
 def _world(grid: OccupancyGrid, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -191,16 +242,6 @@ def candidate_places(grid: OccupancyGrid, planner: GridPlanner, start: Pose2D, s
     return np.stack([ii[ok], jj[ok]], axis=1).astype(np.int64)
 
 
-def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)]), vectorised."""
-    lens = hi - lo
-    total = int(lens.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(lens)[:-1]])
-    return np.repeat(lo - starts, lens) + np.arange(total)
-
-
 def greedy_cover(views: list[np.ndarray], xy: np.ndarray, n_targets: int, start_xy, stop_cost: float,
                  min_count: int, seen: np.ndarray | None = None) -> tuple[list[int], list[np.ndarray]]:
     """Chosen candidates (in the order picked) and the targets each newly saw.
@@ -220,7 +261,7 @@ def greedy_cover(views: list[np.ndarray], xy: np.ndarray, n_targets: int, start_
     seers = np.repeat(np.arange(n), lens)[np.argsort(indices, kind="stable")]  # by target
     t_ptr = np.concatenate([[0], np.cumsum(np.bincount(indices, minlength=n_targets))])
     covered = np.zeros(n_targets, dtype=bool) if seen is None else seen.astype(bool).copy()
-    gain = (lens - np.bincount(seers[_ranges(t_ptr[:-1][covered], t_ptr[1:][covered])], minlength=n)).astype(float)
+    gain = (lens - np.bincount(seers[index_ranges(t_ptr[:-1][covered], t_ptr[1:][covered])], minlength=n)).astype(float)
     near = np.hypot(xy[:, 0] - start_xy[0], xy[:, 1] - start_xy[1])
     chosen: list[int] = []
     credited: list[np.ndarray] = []
@@ -232,7 +273,7 @@ def greedy_cover(views: list[np.ndarray], xy: np.ndarray, n_targets: int, start_
         new = indices[indptr[i]:indptr[i + 1]]
         new = new[~covered[new]]
         covered[new] = True
-        gain -= np.bincount(seers[_ranges(t_ptr[new], t_ptr[new + 1])], minlength=n)
+        gain -= np.bincount(seers[index_ranges(t_ptr[new], t_ptr[new + 1])], minlength=n)
         near = np.minimum(near, np.hypot(xy[:, 0] - xy[i, 0], xy[:, 1] - xy[i, 1]))
         chosen.append(i)
         credited.append(new)

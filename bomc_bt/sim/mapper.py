@@ -1,10 +1,16 @@
 """Occupancy mapping from scans: the simulator's stand-in for GMapping, and a costmap layer.
 
 Both classes rasterise one scan the same way, with OpenCV instead of per-beam Python:
-the scan polygon (the sensor plus every beam end point, star-shaped around the sensor)
-is filled as "seen free", and the end points of beams that hit something are "occupied".
-Work is confined to the scan's bounding box, so an update costs the area the scan
-covers, not the whole map.
+a polygon star-shaped around the sensor is filled as "seen free", and the end points of
+beams that hit something are "occupied" (written after the free fill, so a return is
+never cleared by its own scan). The polygon is the area a ray-casting mapper (GMapping)
+would clear, without casting each beam: every beam out to half a cell short of its
+return, and between two neighbouring beams the wedge out to the *nearer* of their two
+ranges. Joining neighbouring end points instead (the scan's outline) lays the outline
+along any wall seen at a grazing angle, and filling it carves that wall's cells free
+between two returns, scan after scan, until no hit survives and the map shows a gap
+into whatever lies behind the wall. Work is confined to the scan's bounding box, so an
+update costs the area the scan covers, not the whole map.
 
 * :class:`Mapper` accumulates log-odds like GMapping's grid and, like GMapping, only
   integrates a scan after the robot moved ``linear_update`` or turned ``angular_update``.
@@ -63,7 +69,12 @@ def rasterise(scan: LaserScan, pose: Pose2D, grid: OccupancyGrid, free_range: fl
     if c0 >= c1 or r0 >= r1:
         return None
     h, w = r1 - r0, c1 - c0
-    poly = np.concatenate([[[sx, sy]], np.stack([ex, ey], axis=1)]) - [c0 + 0.5, r0 + 0.5]
+    # Half a cell short of a return (the range noise), then a tenth of a cell inset.
+    ends_on_surface = finite & (ranges <= free_range)
+    cleared = np.maximum(reach - np.where(ends_on_surface, 0.5 * res, 0.0), 0.0)
+    dx, dy = free_outline(cleared, cos, sin, 0.1 * res)
+    outline = np.stack([pose.x + dx - ox, pose.y + dy - oy], axis=1) / res
+    poly = np.concatenate([[[sx, sy]], outline]) - [c0 + 0.5, r0 + 0.5]
     free = np.zeros((h, w), dtype=np.uint8)
     cv2.fillPoly(free, [np.rint(poly * 16.0).astype(np.int32).reshape(-1, 1, 2)], 1,
                  lineType=cv2.LINE_8, shift=4)
@@ -76,6 +87,32 @@ def rasterise(scan: LaserScan, pose: Pose2D, grid: OccupancyGrid, free_range: fl
         ok = (hr >= 0) & (hr < h) & (hc >= 0) & (hc < w)
         hits[hr[ok], hc[ok]] = True
     return RasterisedScan(r0, c0, free.astype(bool), hits)
+
+
+def free_outline(reach: np.ndarray, cos: np.ndarray, sin: np.ndarray,
+                 inset: float) -> tuple[np.ndarray, np.ndarray]:
+    """Outline (x, y offsets from the sensor, metres) of the area a scan clears.
+
+    Beam ``i`` goes out to ``reach[i]``; between beams ``i`` and ``i + 1`` the outline
+    runs at ``min(reach[i], reach[i + 1])``, so per beam three vertices: in at the
+    nearer of its left neighbour and itself, out along the beam to its own reach, back
+    in to the nearer of itself and its right neighbour. The chord between two beams then
+    lies inside the circle through the nearer return and never cuts into the surface
+    the farther beam ran along.
+
+    Every vertex then moves ``inset`` towards the sensor along each axis: a return lies
+    on a cell face, and OpenCV fills every cell a vertex rounds into, ties upwards, so
+    a beam grazing a wall on its +x or +y side would otherwise end (and run its last
+    cells) in the wall's cells. Pulling back along the beam does not help there: at a
+    grazing angle it barely moves the end away from the wall.
+    """
+    nearer = np.minimum(reach[:-1], reach[1:])
+    before = np.concatenate([reach[:1], nearer])
+    after = np.concatenate([nearer, reach[-1:]])
+    radius = np.stack([before, reach, after], axis=1).ravel()
+    dx, dy = radius * np.repeat(cos, 3), radius * np.repeat(sin, 3)
+    return (np.sign(dx) * np.maximum(np.abs(dx) - inset, 0.0),
+            np.sign(dy) * np.maximum(np.abs(dy) - inset, 0.0))
 
 
 class Mapper:
