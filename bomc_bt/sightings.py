@@ -26,6 +26,8 @@ the radius, less than an object's size) is the price: it is not reported.
 
 from __future__ import annotations
 
+import base64
+import zlib
 from collections.abc import Iterable, Mapping
 
 import numpy as np
@@ -83,4 +85,10 @@ def unpack_sightings(saved, shape: tuple[int, int]) -> dict[str, np.ndarray] | N
     (a pass recorded before sightings were saved), ValueError when a mask does not fit."""
     if not isinstance(saved, dict):
         return None
-    return {str(c): unpack_mask(text, shape).astype(bool) for c, text in saved.items()}
+    size = -(-int(np.prod(shape)) // 8)  # packed bytes of one mask of this map, exactly
+    out = {}
+    for category, text in saved.items():
+        if len(zlib.decompress(base64.b64decode(text, validate=True))) != size:
+            raise ValueError(f"the {category!r} mask is not one of a {shape[1]} x {shape[0]} map")
+        out[str(category)] = unpack_mask(text, shape).astype(bool)
+    return out

@@ -112,6 +112,12 @@ def test_corrupt_sightings_are_one_line_naming_the_key(tmp_path):
     with SiteStore(tmp_path / "site.db", readonly=True) as store, pytest.raises(BomcError) as err:
         load_seen_before(store, 2, grid, 0.3, 0.35)
     assert err.value.field == "progress.sightings/1" and "corrupt site store" in str(err.value)
+    larger = Sightings(OccupancyGrid(np.zeros((150, 150), dtype=np.int8), 0.1, (0.0, 0.0)))
+    larger.add([obs(12.0, 12.0)])  # a mask of another (larger) map: refused, not read cut to this one's size
+    with sqlite3.connect(tmp_path / "site.db") as con:
+        con.execute("UPDATE progress SET value=? WHERE key='sightings/1'", (json.dumps(larger.packed()),))
+    with SiteStore(tmp_path / "site.db", readonly=True) as store, pytest.raises(BomcError):
+        load_seen_before(store, 2, grid, 0.3, 0.35)
 
 
 def test_a_resumed_pass_has_the_sightings_of_its_snapshot_and_of_the_frames_after_it():
