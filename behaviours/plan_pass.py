@@ -16,7 +16,7 @@ from py_trees.common import Status
 
 from bomc_bt.budget_pass import budget_key, last_full_pass_seconds, load_model, plan_budget_pass
 from bomc_bt.budget_plan import PassBudget
-from bomc_bt.coverage_plan import plan_coverage
+from bomc_bt.coverage_plan import order_stops, plan_coverage
 from bomc_bt.graph import PRESENT
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
@@ -150,7 +150,10 @@ class PlanGapViewpoints(PlanPhase):
         if ctx.traverse.planned(GAPS) or ctx.perception is None:
             self.feedback_message = "gaps already covered" if ctx.traverse.planned(GAPS) else "no perception"
             return Status.SUCCESS
-        views = gap_viewpoints(ctx.robot.live_map(), ctx.perception.coverage.seen, ctx.robot.pose(), self.params)
+        grid, pose = ctx.robot.live_map(), ctx.robot.pose()
+        views = gap_viewpoints(grid, ctx.perception.coverage.seen, pose, self.params)
+        if pose is not None and len(views) > 1:
+            views = order_stops(GridPlanner(grid, ctx.config.sim.planner), pose.xy, views, ctx.config.traversal)
         self.extend(views)
         self.feedback_message = f"{len(views)} gap viewpoints"
         return Status.SUCCESS

@@ -39,7 +39,7 @@ floor to seconds.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -321,6 +321,17 @@ def tour_order(planner: GridPlanner, start_xy, points: np.ndarray, params: Trave
         route = two_opt_route(finite, route, params.max_two_opt_passes, fixed_first=True,
                               fixed_last=params.closed_tour)
     return [i - 1 for i in route[1:] if 0 < i < len(pts)], dist
+
+
+def order_stops(planner: GridPlanner, start_xy, views: list[Pose2D], params: TraversalParams) -> list[Pose2D]:
+    """``views`` in the order of a short open path from ``start_xy`` over path lengths on
+    the grid (:func:`tour_order` without the way back): a later phase's stops (gap
+    viewpoints) are driven to as one tour, not hopped between by straight-line distance."""
+    if len(views) < 2:
+        return list(views)
+    points = np.array([[v.x, v.y] for v in views], dtype=float)
+    order, _ = tour_order(planner, start_xy, points, replace(params, closed_tour=False))
+    return [views[i] for i in order]
 
 
 def _turn_order(headings: list[float], arrive: float) -> list[float]:

@@ -7,9 +7,12 @@ import math
 import numpy as np
 import pytest
 
+from bomc_bt.algorithm_params import TraversalParams
+from bomc_bt.coverage_plan import order_stops
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.viewpoints import GapParams, gap_targets, gap_viewpoints
+from bomc_bt.planner import GridPlanner
+from bomc_bt.viewpoints import GapParams, _nearest_neighbour_order, gap_targets, gap_viewpoints
 
 RES = 0.05
 
@@ -97,3 +100,27 @@ def test_the_lidar_shadow_of_furniture_is_worth_a_look():
         bearing = math.atan2(5.0 - v.y, 5.0 - v.x)
         assert abs(math.remainder(bearing - v.yaw, 2 * math.pi)) <= math.radians(25) + 0.35
     assert gap_viewpoints(grid, seen, Pose2D(1.0, 1.0, 0.0), GapParams(shadow=0.0)) == []
+
+
+def test_gap_viewpoints_are_driven_as_one_tour_along_the_walls_not_by_straight_line():
+    """A 20 x 10 m floor split by a wall at y = 5 m, open only at its right end: the
+    viewpoint nearest the dock in a straight line lies behind the wall. Nearest-neighbour
+    by straight lines goes there first and drives round the wall twice; ordered over path
+    lengths, the robot goes round once."""
+    data = np.zeros((200, 400), np.int8)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    data[98:102, :340] = 100
+    grid = OccupancyGrid(data, RES, (0.0, 0.0))
+    planner = GridPlanner(grid)
+    dock = (1.5, 2.5)
+    views = [Pose2D(x, y, 0.0) for x, y in ((1.5, 7.5), (9.0, 2.5), (16.0, 2.5), (16.0, 7.5), (9.0, 7.5))]
+    ordered = order_stops(planner, dock, views, TraversalParams())
+    assert [(v.x, v.y) for v in ordered] == [(9.0, 2.5), (16.0, 2.5), (16.0, 7.5), (9.0, 7.5), (1.5, 7.5)]
+
+    def driven(order: list[Pose2D]) -> float:
+        stops = [dock] + [(v.x, v.y) for v in order]
+        return sum(planner.lookup(planner.distances_from(a), b) for a, b in zip(stops[:-1], stops[1:], strict=True))
+
+    straight = _nearest_neighbour_order(views, Pose2D(*dock, 0.0))
+    assert (straight[0].x, straight[0].y) == (1.5, 7.5)
+    assert driven(ordered) < 0.7 * driven(straight)
