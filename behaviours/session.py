@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
+from bomc_bt.first_seen import is_first_seen
 from bomc_bt.report import write_session_report
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
@@ -26,6 +27,26 @@ class StartSession(Leaf):
         ctx.progress.nodes = len(ctx.graph.nodes)
         verb = "resumed" if resumed else "started"
         self.feedback_message = f"session {ctx.session} {verb}: {len(ctx.graph.nodes)} nodes in the graph"
+        return Status.SUCCESS
+
+
+@register("PairRelocations")
+class PairRelocations(Leaf):
+    """Before the session closes: a removal and an addition of this pass that were one
+    object moved become one move (:mod:`bomc_bt.graph.relocations`), written to the store
+    at once. A node first seen in this pass (no earlier pass saw its place) is no arrival."""
+
+    def update(self) -> Status:
+        ctx = self.context
+        first_seen = {e.node_id for e in ctx.store.events(session=ctx.session) if is_first_seen(e)}
+        events = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen)
+        if events:
+            ctx.store.record(events, ctx.graph.drain_changed())
+            if ctx.perception is not None:
+                ctx.perception.events.extend(events)
+        moves = [f"{e.category} #{e.node_id}" for e in events if e.kind == "moved"]
+        self.feedback_message = f"{len(moves)} removal(s) paired with an addition as moved" + (
+            f": {', '.join(moves[:5])}" if moves else "")
         return Status.SUCCESS
 
 

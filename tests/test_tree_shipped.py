@@ -71,7 +71,8 @@ def test_the_monitor_tree_reads_like_the_papers_figure(tmp_path):
     root = load_tree(TREES / "monitor.yaml", load_registry(), shipped_context(tmp_path), clock=lambda: 0.0)
     names = preorder(root)
     order = ["Start Session", "Relocalize", "Traverse And Perceive", "Traverse Waypoints", "Plan Traversal",
-             "Visit Waypoints", "Cover Gaps", "Refresh Stale", "Perceive Associate", "End Session"]
+             "Visit Waypoints", "Cover Gaps", "Refresh Stale", "Perceive Associate", "Pair Relocations",
+             "End Session"]
     positions = [names.index(n) for n in order]
     assert positions == sorted(positions)
     ports = tree_ports(root)

@@ -15,7 +15,7 @@ removed nodes (the store passes the next id; ids are what the history is keyed o
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -126,6 +126,14 @@ class ObjectGraph:
             observations = self.edits.relabel(observations, self.nodes, self.index.scale, self.gate)
             observations = self.edits.ignore_deleted(observations, self, self.params.readd_confidence)
         return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights)
+
+    def pair_relocations(self, session: int, stamp: float, candidate: Callable[[Node], bool] = lambda n: True
+                         ) -> list[Event]:
+        """When ``session`` ends: its removals and additions that were one object moved
+        become moves (:mod:`bomc_bt.graph.relocations`; ``candidate`` says which added nodes
+        may be such an arrival). The paper's policy pairs nothing."""
+        pair = getattr(self.policy, "pair_relocations", None)
+        return [] if pair is None else pair(self, session, stamp, candidate)
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.

@@ -131,6 +131,9 @@ class AssociationParams:
     max_misses: int = 12  # [count] robust: consecutive misses that remove any node, however rarely detected
     confirm_interval: float = 0.5  # [s] robust: robot time between two counted misses or two confirming sightings
     move_radius: float = 3.0  # [m] robust: how far a removed or pending object may have moved and keep its id
+    # [m] robust: when a pass ends, a node it removed and a node it added, of one category,
+    # each the other's nearest within this, are one object moved (bomc_bt.graph.relocations); 0: off
+    relocation_radius: float = 5.0
     position_smoothing: float = 0.3  # [-] robust: running-average weight of a new observation in a node's position
     report_distance: float = 0.1  # [m] robust: drift since the last report that makes a refresh an "updated" event
     vertical_weight: float = 0.5  # [-] robust: weight of height differences in distances (paper: 1)
@@ -172,8 +175,8 @@ class AssociationParams:
             raise ValueError("detection_prior must be in (0, 1)")
         if self.detection_prior_weight < 0 or self.max_misses < self.confirm_misses:
             raise ValueError("detection_prior_weight must be >= 0 and max_misses >= confirm_misses")
-        if self.confirm_interval < 0 or self.move_radius < 0 or self.report_distance < 0:
-            raise ValueError("confirm_interval, move_radius and report_distance must be >= 0")
+        if min(self.confirm_interval, self.move_radius, self.report_distance, self.relocation_radius) < 0:
+            raise ValueError("confirm_interval, move_radius, relocation_radius and report_distance must be >= 0")
         if self.confirm_detections < 1 or self.tentative_ttl < 0:
             raise ValueError("confirm_detections must be >= 1 and tentative_ttl >= 0")
         if self.extent_gate < 1.0:

@@ -46,7 +46,7 @@ off by the image edge has its centroid too low.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -55,6 +55,7 @@ from bomc_bt.graph.association import near_any
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.extents import NodeExtents
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
+from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.tentative import TentativeSightings
 
 if TYPE_CHECKING:
@@ -237,7 +238,10 @@ class RobustPolicy:
         """``v`` moved to where ``arrival`` stands: ``v`` keeps its id and takes the arrival's
         place, size and sightings; the arrival is folded into it (no change of its own)."""
         previous = v.position.copy()
-        graph.relocate(v, arrival.position.copy())
+        if v.state == REMOVED:  # paired when the pass ended (pair_relocations)
+            graph.restore(v, arrival.position.copy())
+        else:
+            graph.relocate(v, arrival.position.copy())
         if self.extents.boxes:
             self.extents.adopt(graph, v, arrival)
         graph.add_observations(v, arrival.observations)
@@ -245,6 +249,17 @@ class RobustPolicy:
         graph.touch(v, session, arrival.last_seen if arrival.last_seen is not None else stamp)
         merged = graph.remove(arrival, session, stamp, merged_into=v.id)
         return [merged, graph.report("moved", v, session, stamp, previous)]
+
+    def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
+                         candidate: Callable[[Node], bool]) -> list[Event]:
+        """When the pass ends: each node it removed, paired with a ``candidate`` node it
+        added (:func:`~bomc_bt.graph.relocations.relocation_pairs`), moved there."""
+        removed = [v for v in graph.removed_this_session() if v.first_session < session]
+        arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
+        events: list[Event] = []
+        for v, arrival in relocation_pairs(removed, arrivals, self.params.relocation_radius):
+            events.extend(self._moved_to(graph, v, arrival, session, stamp))
+        return events
 
     def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
         """Consecutive counted misses that remove ``v``: ``confirm_misses`` for an object

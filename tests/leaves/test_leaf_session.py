@@ -12,7 +12,8 @@ from py_trees.common import Status
 from behaviours.common import Fail, FailParams, Wait, WaitParams
 from behaviours.perceive import PerceiveAssociate
 from behaviours.save_map import SaveMap
-from behaviours.session import EndSession, EndSessionParams, StartSession
+from behaviours.session import EndSession, EndSessionParams, PairRelocations, StartSession
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
 from bomc_bt.monitoring import FrameResult
 from bomc_bt.robot import RGBDFrame
 
@@ -90,3 +91,32 @@ def test_wait_waits_on_the_robot_clock(ctx, robot):
     assert tick(leaf) == Status.RUNNING
     robot.advance(0.1)
     assert tick(leaf) == Status.SUCCESS
+
+
+def chair_moved_4_m(ctx, first_seen: bool) -> None:
+    """Session 2 of a site whose chair 0 (session 1, at the origin) now stands 4 m away:
+    the pass added a node there and confirmed the chair's absence at the origin."""
+    params = AssociationParams(confirm_misses=1, confirm_detections=1)
+    ctx.graph = ObjectGraph(params, [Node(0, "chair", np.array([0.0, 0.0, 0.45]), 0.9, 1, 1, observations=9)])
+    ctx.session = 2
+    seen = Observation("chair", np.array([4.0, 0.0, 0.45]), 0.9, 500, 0.0)
+    events = ctx.graph.associate([seen], [], 2, 10.0)
+    if first_seen:
+        events[0].detail = {**(events[0].detail or {}), "first_seen": True}
+    events += ctx.graph.associate([], [0], 2, 11.0)
+    ctx.store.record(events, ctx.graph.drain_changed())
+
+
+def test_pair_relocations_makes_a_removal_and_an_addition_one_move_in_the_store(ctx):
+    chair_moved_4_m(ctx, first_seen=False)
+    leaf = PairRelocations("Pair", None, ctx)
+    assert tick(leaf) == Status.SUCCESS and leaf.feedback_message.startswith("1 removal(s) paired")
+    assert [(e.kind, e.node_id) for e in ctx.store.events(session=2)][-1] == ("moved", 0)
+    assert [n.id for n in ctx.store.nodes()] == [0]
+
+
+def test_pair_relocations_leaves_a_first_seen_node_as_it_is(ctx):
+    chair_moved_4_m(ctx, first_seen=True)
+    leaf = PairRelocations("Pair", None, ctx)
+    assert tick(leaf) == Status.SUCCESS and leaf.feedback_message.startswith("0 removal(s)")
+    assert "moved" not in [e.kind for e in ctx.store.events(session=2)] and 0 not in ctx.graph.nodes

@@ -1,0 +1,113 @@
+"""How far change F1 can go when objects look alike: the best a map keyed by position could
+report, from the world files alone.
+
+A chair carried to another room and a chair taken away while another was brought in look
+the same to any detector that labels "chair": the robot sees one chair gone and one chair
+new. ``bomc evaluate`` scores the first as one ``moved`` and the second as one ``removed``
+plus one ``added`` (CONTRACTS; `bomc_bt/change_evaluation.py`), so part of the change F1 is
+out of reach of perception, however perfect. This benchmark measures that part on
+generated worlds (``bomc world office``, seeds given on the command line), scoring with the
+project's own change evaluation an *ideal reporter*: every object seen, every position
+exact, every removal and addition found, and identity kept where position can keep it:
+
+* a move within ``association.move_radius`` keeps its id (the pass's own move rule);
+* a farther move is a removal at the old place plus an addition at the new one;
+* then, with ``relocation_radius`` > 0, removals and additions are paired as when a pass
+  ends (:func:`bomc_bt.graph.relocations.relocation_pairs`: one category, each the other's
+  nearest within the radius).
+
+It prints, per floor, the mean and lowest per-session change F1 and the summed tp / fp /
+fn for each pairing radius, and the shares of true moves farther than ``move_radius``:
+    python benchmarks/bench_change_ceiling.py --office 36x28:201:12 --office 93x90:301:3
+The radii compared default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from bomc_bt.change_evaluation import ObjectChange, score_changes, true_changes
+from bomc_bt.config import load_config
+from bomc_bt.graph import Node, ObjectGraph
+from bomc_bt.graph.relocations import relocation_pairs
+from bomc_bt.officegen import OfficeParams, generate_office
+
+
+def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float) -> list[ObjectChange]:
+    """What a perfect robot that tells objects apart only by position would report."""
+    out = [c for c in truth if c.kind != "moved" or float(np.hypot(*(c.new - c.old)[:2])) <= move_radius]
+    far = [c for c in truth if c.kind == "moved" and c not in out]
+    removed = [c for c in out if c.kind == "removed"] + [ObjectChange("removed", c.key, c.category, c.old, None)
+                                                        for c in far]
+    added = [c for c in out if c.kind == "added"] + [ObjectChange("added", c.key, c.category, None, c.new)
+                                                    for c in far]
+    out = [c for c in out if c.kind == "moved"]
+    as_node = {id(c): Node(k, c.category, c.old if c.old is not None else c.new, 1.0, 1, 1)
+               for k, c in enumerate(removed + added)}
+    pairs = relocation_pairs([as_node[id(c)] for c in removed], [as_node[id(c)] for c in added], radius)
+    paired = {n.id for pair in pairs for n in pair}
+    by_id = {as_node[id(c)].id: c for c in removed + added}
+    out += [ObjectChange("moved", -1, a.category, by_id[a.id].old, by_id[b.id].new) for a, b in pairs]
+    out += [c for c in removed + added if as_node[id(c)].id not in paired]
+    return [ObjectChange(c.kind, k, c.category, c.old, c.new) for k, c in enumerate(out)]  # keyed like nodes
+
+
+def floor_rows(world_path: Path, radii: list[float], config) -> tuple[int, int, int, int, list[tuple]]:
+    """(session pairs, true changes, true moves, moves beyond move_radius, one row per radius)."""
+    from bomc_bt.world import load_world
+
+    world = load_world(world_path)
+    threshold = ObjectGraph(config.association).threshold
+    move_radius = config.association.move_radius
+    states = []
+    for n in range(1, max(world.sessions, default=1) + 1):
+        present = world.ground_truth(n)
+        states.append({name: (o.category, np.asarray(o.position, dtype=float)) for name, o in present.items()})
+    truths = [true_changes(a, b, threshold) for a, b in zip(states[:-1], states[1:], strict=True)]
+    moves = [c for t in truths for c in t if c.kind == "moved"]
+    far = sum(float(np.hypot(*(c.new - c.old)[:2])) > move_radius for c in moves)
+    rows = []
+    for radius in radii:
+        f1s, totals = [], np.zeros(3, dtype=int)
+        for k, truth in enumerate(truths, start=2):
+            result = score_changes(truth, ideal_report(truth, move_radius, radius), threshold, k, k - 1)
+            o = result.overall
+            f1s.append(o.f1 if o.f1 is not None else 1.0)
+            totals += (o.tp, o.mapped - o.tp, o.gt - o.tp)
+        rows.append((radius, float(np.mean(f1s)), float(np.min(f1s)), *totals.tolist()))
+    return len(truths), sum(len(t) for t in truths), len(moves), far, rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--office", action="append", default=[], metavar="WxH:SEED:SESSIONS",
+                   help="a generated office (default: 36x28:201:12 and 93x90:301:3)")
+    p.add_argument("--radius", action="append", type=float, help="pairing radius, m (repeatable; inf: unbounded)")
+    args = p.parse_args(argv)
+    offices = args.office or ["36x28:201:12", "93x90:301:3"]
+    radii = args.radius or [0.0, 3.0, 5.0, 8.0, 12.0, float("inf")]
+    config = load_config()
+    print(f"# ideal reporter: move_radius {config.association.move_radius} m, configured relocation_radius "
+          f"{config.association.relocation_radius} m")
+    print(f"{'floor':16} {'sessions':>8} {'changes':>7} {'moves':>5} {'far':>4} {'radius m':>8} "
+          f"{'mean F1':>7} {'min F1':>6} {'tp':>4} {'fp':>4} {'fn':>4}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for spec in offices:
+            size, seed, sessions = spec.split(":")
+            width, height = (float(v) for v in size.lower().split("x"))
+            path = Path(tmp) / f"office-{seed}.yaml"
+            generate_office(OfficeParams(width=width, height=height, seed=int(seed), sessions=int(sessions)), path)
+            n_pairs, n_changes, n_moves, n_far, rows = floor_rows(path, radii, config)
+            for radius, mean, low, tp, fp, fn in rows:
+                print(f"{size + ' s' + seed:16} {n_pairs:>8} {n_changes:>7} {n_moves:>5} {n_far:>4} "
+                      f"{radius:>8.1f} {mean:>7.3f} {low:>6.3f} {tp:>4} {fp:>4} {fn:>4}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
