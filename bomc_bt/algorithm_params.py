@@ -341,6 +341,7 @@ class ProjectionParams:
     min_points: int = 30  # [count] fewer valid sampled points than this (at 640 x 480) and the detection is skipped
     stride: int = 2  # [count] sample every stride-th pixel in both directions (at 640 x 480)
     max_depth: float = 6.0  # [m] farther pixels are not used (depth noise grows with depth squared)
+    floor_height: float = 0.05  # [m] a detection with fewer than min_points masked points above this is floor
     fov_columns: int = 64  # [count] image columns sampled for the field-of-view polygon
     # [m] a node farther from the camera is not expected to be detected (robust mode): far
     # objects are small in the image and often missed, so their absence proves little. The
@@ -370,14 +371,12 @@ class ProjectionParams:
     box_range: float = 4.0
 
     def __post_init__(self) -> None:
-        if self.min_points < 1:
-            raise ValueError("min_points must be >= 1")
-        if self.stride < 1:
-            raise ValueError("stride must be >= 1")
+        if self.min_points < 1 or self.stride < 1:
+            raise ValueError("min_points and stride must be >= 1")
         if not self.max_depth > 0.0:
             raise ValueError("max_depth must be positive")
-        if self.miss_full_range < 0.0:
-            raise ValueError("miss_full_range must be >= 0")
+        if self.miss_full_range < 0.0 or not 0.0 <= self.floor_height <= 1.0:
+            raise ValueError("miss_full_range must be >= 0 and floor_height in [0, 1] m")
         if not 0.0 <= self.expect_visible <= 1.0:
             raise ValueError("expect_visible must be in [0, 1]")
         if not 0.0 <= self.expect_edge_on_deg <= 90.0:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -277,3 +278,26 @@ def test_observations_carry_their_floor_box_and_truncation():
     chair = WorldObject("c", "chair", (2.0, 0.0, 0.45), (0.5, 0.5, 0.9), 0.0)  # in front of its middle
     _, observations = perfect_observations(see([table, chair], Pose2D(0.0, 0.0, 0.0)), ["table"])
     assert observations and all(o.truncated for o in observations)
+
+
+def test_a_detection_on_bare_floor_is_no_object_but_an_object_keeps_the_floor_its_mask_spilled_onto():
+    """A box standing on the floor and, beside it, a "detection" whose mask holds only the
+    floor in front of it: the second gives no observation (it is counted as on the floor);
+    the box's own mask widened by a band of floor is kept, as a whole."""
+    pose = Pose2D(0.0, 0.0, 0.0)
+    box = WorldObject("b", "bin", (2.5, 0.0, 0.3), (0.4, 0.4, 0.6), 0.0)
+    frame = see([box], pose, 15.0)
+    dets, _ = perfect_observations(frame, ["bin"])
+    rows, cols = np.nonzero(dets[0].mask)
+    spilled = dets[0].mask.copy()
+    spilled[rows.max() + 1:rows.max() + 6, cols.min():cols.max() + 1] = True  # floor just below its foot
+    floor_only = np.zeros_like(spilled)
+    floor_only[rows.max() + 2:rows.max() + 14, cols.min():cols.max() + 1] = True
+    assert np.isfinite(frame.depth[floor_only]).all()
+    stats = ProjectionStats()
+    views = [replace(dets[0], mask=spilled), replace(dets[0], mask=floor_only)]
+    kept = detections_to_observations(frame, views, ProjectionParams(), stats)
+    assert len(kept) == 1 and stats.on_floor == 1 and stats.observations == 1
+    unfiltered = detections_to_observations(frame, views, ProjectionParams(floor_height=0.0))
+    assert len(unfiltered) == 2 and unfiltered[1].position[2] < 0.02  # what it was: a floor "object"
+    assert np.allclose(kept[0].position, unfiltered[0].position)  # the object's view is untouched
