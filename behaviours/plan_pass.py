@@ -136,7 +136,8 @@ class PlanPhase(Leaf):
 @register("PlanGapViewpoints")
 class PlanGapViewpoints(PlanPhase):
     """After the waypoints: adds viewpoints that see the floor the camera has not seen
-    (see :mod:`bomc_bt.viewpoints`)."""
+    (see :mod:`bomc_bt.viewpoints`), in the order of a short open tour over path lengths
+    from where the robot stands (:func:`bomc_bt.coverage_plan.order_stops`)."""
 
     Params = GapParams
     config_params = {"view_range": EXPECT_RANGE}
