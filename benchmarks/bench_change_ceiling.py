@@ -13,7 +13,7 @@ exact, every removal and addition found, and identity kept where position can ke
 * a move within ``association.move_radius`` keeps its id (the pass's own move rule);
 * a farther move is a removal at the old place plus an addition at the new one;
 * then, with ``relocation_radius`` > 0, removals and additions are paired as when a pass
-  ends (:func:`bomc_bt.graph.relocations.relocation_pairs`: one category, each the other's
+  ends (:func:`bomc_bt.graph.relocations.relocation_steps`: one category, each the other's
   nearest within the radius).
 
 It prints, per floor, the mean and lowest per-session change F1 and the summed tp / fp /
@@ -34,8 +34,9 @@ import numpy as np
 from bomc_bt.change_evaluation import ObjectChange, score_changes, true_changes
 from bomc_bt.config import load_config
 from bomc_bt.graph import Node, ObjectGraph
-from bomc_bt.graph.relocations import relocation_pairs
+from bomc_bt.graph.relocations import relocation_steps
 from bomc_bt.officegen import OfficeParams, generate_office
+from bomc_bt.world import load_world
 
 
 def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float) -> list[ObjectChange]:
@@ -49,18 +50,16 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float) -
     out = [c for c in out if c.kind == "moved"]
     as_node = {id(c): Node(k, c.category, c.old if c.old is not None else c.new, 1.0, 1, 1)
                for k, c in enumerate(removed + added)}
-    pairs = relocation_pairs([as_node[id(c)] for c in removed], [as_node[id(c)] for c in added], radius)
+    pairs = relocation_steps([as_node[id(c)] for c in removed], [as_node[id(c)] for c in added], radius)
     paired = {n.id for pair in pairs for n in pair}
     by_id = {as_node[id(c)].id: c for c in removed + added}
-    out += [ObjectChange("moved", -1, a.category, by_id[a.id].old, by_id[b.id].new) for a, b in pairs]
+    out += [ObjectChange("moved", 0, a.category, by_id[a.id].old, by_id[b.id].new) for a, b in pairs]
     out += [c for c in removed + added if as_node[id(c)].id not in paired]
     return [ObjectChange(c.kind, k, c.category, c.old, c.new) for k, c in enumerate(out)]  # keyed like nodes
 
 
 def floor_rows(world_path: Path, radii: list[float], config) -> tuple[int, int, int, int, list[tuple]]:
     """(session pairs, true changes, true moves, moves beyond move_radius, one row per radius)."""
-    from bomc_bt.world import load_world
-
     world = load_world(world_path)
     threshold = ObjectGraph(config.association).threshold
     move_radius = config.association.move_radius
@@ -102,9 +101,9 @@ def main(argv: list[str] | None = None) -> int:
             width, height = (float(v) for v in size.lower().split("x"))
             path = Path(tmp) / f"office-{seed}.yaml"
             generate_office(OfficeParams(width=width, height=height, seed=int(seed), sessions=int(sessions)), path)
-            n_pairs, n_changes, n_moves, n_far, rows = floor_rows(path, radii, config)
+            n_steps, n_changes, n_moves, n_far, rows = floor_rows(path, radii, config)
             for radius, mean, low, tp, fp, fn in rows:
-                print(f"{size + ' s' + seed:16} {n_pairs:>8} {n_changes:>7} {n_moves:>5} {n_far:>4} "
+                print(f"{size + ' s' + seed:16} {n_steps:>8} {n_changes:>7} {n_moves:>5} {n_far:>4} "
                       f"{radius:>8.1f} {mean:>7.3f} {low:>6.3f} {tp:>4} {fp:>4} {fn:>4}", flush=True)
     return 0
 
