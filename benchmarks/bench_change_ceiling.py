@@ -13,7 +13,7 @@ exact, every removal and addition found, and identity kept where position can ke
 * a move within ``association.move_radius`` keeps its id (the pass's own move rule);
 * a farther move is a removal at the old place plus an addition at the new one;
 * then, with ``relocation_radius`` > 0, removals and additions are paired as when a pass
-  ends (:func:`bomc_bt.graph.relocations.relocation_steps`: one category, each the other's
+  ends (:func:`bomc_bt.graph.relocations.relocation_pairs`: one category, each the other's
   nearest within the radius).
 
 It prints, per floor, the mean and lowest per-session change F1 and the summed tp / fp /
@@ -34,7 +34,7 @@ import numpy as np
 from bomc_bt.change_evaluation import ObjectChange, score_changes, true_changes
 from bomc_bt.config import load_config
 from bomc_bt.graph import Node, ObjectGraph
-from bomc_bt.graph.relocations import relocation_steps
+from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.officegen import OfficeParams, generate_office
 from bomc_bt.world import load_world
 
@@ -50,7 +50,7 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float) -
     out = [c for c in out if c.kind == "moved"]
     as_node = {id(c): Node(k, c.category, c.old if c.old is not None else c.new, 1.0, 1, 1)
                for k, c in enumerate(removed + added)}
-    pairs = relocation_steps([as_node[id(c)] for c in removed], [as_node[id(c)] for c in added], radius)
+    pairs = relocation_pairs([as_node[id(c)] for c in removed], [as_node[id(c)] for c in added], radius)
     paired = {n.id for pair in pairs for n in pair}
     by_id = {as_node[id(c)].id: c for c in removed + added}
     out += [ObjectChange("moved", 0, a.category, by_id[a.id].old, by_id[b.id].new) for a, b in pairs]
