@@ -13,6 +13,11 @@ e.g. to compare with the stops no longer dropped:
     python benchmarks/bench_coverage_plan.py --office 93x90:41 --set drop_redundant=false
     python benchmarks/bench_coverage_plan.py --site /path/to/site --shared office-s --shared lab-b
     python benchmarks/bench_coverage_plan.py --shared office-s --shared lab-b --known
+    python benchmarks/bench_coverage_plan.py --office 93x90:41 --reach 8
+
+``--reach`` plans for a camera whose detections count as evidence that far (the pass's
+``projection.expect_range``, 5 m by default): how long a tour a longer-reaching detector
+would need.
 
 ``--known`` gives the plan the world's objects as the graph's nodes (as a later session
 has them), each to be looked at once from within ``projection.miss_full_range``
@@ -113,6 +118,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--site", action="append", default=[], metavar="DIR", help="a saved site's folder")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a traversal parameter")
     ap.add_argument("--known", action="store_true", help="the worlds' objects as known nodes, each looked at from near")
+    ap.add_argument("--reach", type=float, default=None, metavar="M",
+                    help="the camera reach [m] the plan assumes (default: projection.expect_range)")
     args = ap.parse_args(argv)
     config = load_config([])
     changes = {}
@@ -121,7 +128,9 @@ def main(argv: list[str] | None = None) -> int:
         current = getattr(config.traversal, key)
         changes[key] = value.lower() in ("1", "true", "yes") if isinstance(current, bool) else type(current)(value)
     params = dataclasses.replace(config.traversal, **changes)
-    reach = config.projection.expect_range
+    reach = config.projection.expect_range if args.reach is None else args.reach
+    if not 0.0 < reach <= 30.0:
+        ap.error("--reach must be in (0, 30] m")
     print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'plan cpu s':>10s} "
           f"{'near':>9s}")
     with tempfile.TemporaryDirectory() as tmp:
