@@ -18,7 +18,6 @@ from bomc_bt.algorithm_params import (
     ExplorationParams,
     ProjectionParams,
     RecoveryParams,
-    RelocalizationParams,
     TraversalParams,
 )
 from bomc_bt.central.params import CentralParams
@@ -26,6 +25,7 @@ from bomc_bt.config_docs import documented_yaml, plain
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import AssociationParams
 from bomc_bt.params import from_mapping, merge
+from bomc_bt.relocalization_params import RelocalizationParams
 from bomc_bt.ros.params import RosParams
 from bomc_bt.sim.params import CameraParams, SimDetectorParams, SimParams
 from bomc_bt.yaml_io import read_yaml

@@ -18,6 +18,13 @@ beam pass through a mapped wall?"). "Confident" needs two things, as a human rea
 AMCL's particle cloud would: a high score, and no clearly different pose (far away, or
 facing elsewhere) that explains the scan almost as well. The second check is what
 rejects long featureless corridors and repeated identical rooms.
+
+The map is days old and the floor has changed since: chairs brought in stop beams short
+in what the map says is open floor, chairs taken away let beams through what it says is
+occupied. The score a verdict reads therefore leaves out beams that end in mapped free
+floor far from every mapped surface (``change_gap``: AMCL's "short" readings), and a beam
+through a furniture-sized blob is scored where it ends; only a beam through a wall fails.
+At least ``min_explained`` of the beams must be left to score.
 """
 
 from __future__ import annotations
@@ -27,9 +34,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bomc_bt.algorithm_params import RelocalizationParams
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.relocalization_params import RelocalizationParams
 from bomc_bt.robot import LaserScan
 from bomc_bt.scan_likelihood import Beams, LikelihoodField, to_world, valid_beams
 
@@ -115,10 +122,34 @@ class ScanMatcher:
     def score(self, scan: LaserScan, pose: Pose2D) -> float:
         """The score :meth:`match` reports for ``scan`` taken at ``pose`` (0 without valid beams).
 
-        Mean beam likelihood, a beam that crosses a mapped wall counting as 0.
+        Mean beam likelihood over the beams the map can judge, a beam through a wall
+        counting as 0 (:meth:`judged`).
         """
-        beams = valid_beams(scan).subsample(self.params.final_beams)
-        return self._checked(pose, beams)[1]
+        return self.judged(pose, valid_beams(scan).subsample(self.params.final_beams))[0]
+
+    def judged(self, pose: Pose2D, beams: Beams) -> tuple[float, float]:
+        """(score, share of the beams scored) of ``pose`` in a floor that may have changed.
+
+        Left out: beams ending in mapped free floor farther than ``change_gap`` from every
+        mapped surface (something new stands there). A beam through a wall scores 0; one
+        through a furniture-sized blob only (``furniture_area``) is scored where it ends.
+        """
+        if beams.count == 0:
+            return 0.0, 0.0
+        p = self.params
+        wx, wy = to_world(pose, beams.xy)
+        lik = self.likelihood.lookup(wx, wy, p.sigma)
+        length = np.hypot(beams.xy[:, 0], beams.xy[:, 1]) - p.see_through_tolerance
+        through = self.likelihood.crosses_wall(pose, wx, wy, length, self.likelihood.walls(p.furniture_area))
+        rows, cols = self.grid.world_to_cell(wx, wy)
+        inside = self.grid.in_bounds(rows, cols)
+        new_thing = np.zeros(beams.count, dtype=bool)
+        r, c = rows[inside], cols[inside]
+        new_thing[inside] = (self.grid.data[r, c] == 0) & (self.likelihood.surface_distance[r, c] > p.change_gap)
+        scored = ~new_thing | through
+        if not scored.any():
+            return 0.0, 0.0
+        return float(np.mean(np.where(through, 0.0, lik)[scored])), float(np.mean(scored))
 
     # -- search ----------------------------------------------------------------------
     def _search(self, rows, cols, yaws, coarse, beams, levels, n_keep) -> RelocalizationResult:
@@ -142,8 +173,8 @@ class ScanMatcher:
         rivals_refined = [r for r in rivals_refined + refined if _is_far(r[0], best_pose, p)]
         runner = max(rivals_refined, key=lambda r: r[1]) if rivals_refined else None
         final_pose, _ = self._refine(best_pose, beams, rest)
-        final_score = self._checked(final_pose, beams.subsample(p.final_beams))[1]
-        return _verdict(final_pose, final_score, best_score, runner, beams.count, p)
+        final_score, scored = self.judged(final_pose, beams.subsample(p.final_beams))
+        return _verdict(final_pose, final_score, scored, best_score, runner, beams.count, p)
 
     def _checked(self, pose: Pose2D, beams: Beams) -> tuple[Pose2D, float]:
         """``pose`` and its score, where a beam that passes through a mapped wall scores 0.
@@ -247,16 +278,22 @@ def _is_far(a: Pose2D, b: Pose2D, p: RelocalizationParams) -> bool:
     return a.distance_to(b) > p.ambiguity_distance or abs(wrap_angle(a.yaw - b.yaw)) > p.ambiguity_angle
 
 
-def _verdict(best: Pose2D, score: float, comparable: float, runner, n_beams: int,
+def _verdict(best: Pose2D, score: float, scored: float, comparable: float, runner, n_beams: int,
              p: RelocalizationParams) -> RelocalizationResult:
-    """Confident = a good score and no clearly different pose that scores almost as well.
+    """Confident = a good score over enough beams and no clearly different pose that scores almost as well.
 
+    ``scored``: the share of the beams the map could judge (:meth:`ScanMatcher.judged`);
     ``comparable`` is the winner's score at the rivals' refinement level (same beams).
     """
     r_pose, r_score = runner if runner is not None else (None, 0.0)
     where = f"score {score:.2f} over {n_beams} beams"
+    if scored < 1.0:
+        where += f" ({1.0 - scored:.0%} ending on things the map lacks)"
     if r_pose is not None:
         where += f", runner-up {r_score:.2f} at {r_pose.distance_to(best):.1f} m"
+    if scored < p.min_explained:
+        return RelocalizationResult(best, score, False, f"too much has changed: {where} (min_explained "
+                                    f"{p.min_explained})", r_pose, r_score)
     if score < p.min_score:
         return RelocalizationResult(best, score, False, f"poor match: {where} (min_score {p.min_score})",
                                     r_pose, r_score)

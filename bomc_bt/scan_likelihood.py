@@ -104,8 +104,12 @@ class LikelihoodField:
         self.occupied = grid.occupied_mask()
         self._cache: dict = {}
 
-    def crosses_wall(self, pose: Pose2D, wx: np.ndarray, wy: np.ndarray, length: np.ndarray) -> np.ndarray:
-        """Per ray from ``pose`` towards (wx, wy): an occupied cell within ``length``?"""
+    def crosses_wall(self, pose: Pose2D, wx: np.ndarray, wy: np.ndarray, length: np.ndarray,
+                     occupied: np.ndarray | None = None) -> np.ndarray:
+        """Per ray from ``pose`` towards (wx, wy): an occupied cell within ``length``?
+
+        ``occupied``: the cells that count (default every occupied cell of the map)."""
+        occupied = self.occupied if occupied is None else occupied
         if len(wx) == 0:
             return np.zeros(0, dtype=bool)
         dx, dy = wx - pose.x, wy - pose.y
@@ -117,8 +121,21 @@ class LikelihoodField:
         rows, cols = self.grid.world_to_cell(px, py)
         inside = self.grid.in_bounds(rows, cols) & (t[None, :] < length[:, None])
         occ = np.zeros(rows.shape, dtype=bool)
-        occ[inside] = self.occupied[rows[inside], cols[inside]]
+        occ[inside] = occupied[rows[inside], cols[inside]]
         return occ.any(axis=1)
+
+    def walls(self, furniture_area: float) -> np.ndarray:
+        """Occupied cells without the blobs of at most ``furniture_area`` m^2 (cached).
+
+        A saved map holds the furniture the lidar saw during the build; what a later pass
+        finds gone was one of those small blobs, never a stretch of wall."""
+        key = ("walls", round(furniture_area, 6))
+        if key not in self._cache:
+            count, labels, stats, _ = cv2.connectedComponentsWithStats(self.occupied.astype(np.uint8), connectivity=8)
+            small = stats[:, cv2.CC_STAT_AREA] * self.resolution ** 2 <= furniture_area
+            small[0] = True  # the background label
+            self._cache[key] = ~small[labels] if count > 1 else self.occupied.copy()
+        return self._cache[key]
 
     def padded(self, sigma: float, pad: int) -> np.ndarray:
         """Likelihood field for ``sigma``, zero-padded by ``pad`` cells (float32, cached)."""

@@ -197,3 +197,45 @@ def test_params_from_yaml_are_validated():
         from_mapping(RelocalizationParams, {"sigma": -1.0}, "cfg.yaml", "relocalization")
     with pytest.raises(BomcError, match="serch_radius"):
         from_mapping(RelocalizationParams, {"serch_radius": 1.0}, "cfg.yaml", "relocalization")
+
+
+def _furnished_room(boxes: list[tuple[float, float]]) -> OccupancyGrid:
+    """A 12 x 10 m room (0.05 m cells) with a 0.6 m square of furniture at each (x, y)."""
+    data = np.zeros((200, 240), dtype=np.int8)
+    data[:3, :] = data[-3:, :] = data[:, :3] = data[:, -3:] = OCCUPIED
+    data[100:103, :90] = OCCUPIED  # a partition, so the room is not symmetric
+    for x, y in boxes:
+        r, c = int(y / 0.05), int(x / 0.05)
+        data[r - 6:r + 6, c - 6:c + 6] = OCCUPIED
+    return OccupancyGrid(data, 0.05)
+
+
+def test_a_floor_whose_furniture_changed_since_the_build_still_relocalizes():
+    """Days after the build, the furniture around the dock has been taken away and other pieces
+    brought in: a fifth of the beams stop short on things the map lacks and others pass where the
+    map has furniture. The pose is still the only one that fits, so it is trusted; judged as a
+    map-perfect scan it would be refused (a pass that cannot start)."""
+    built = _furnished_room([(2.0, 2.0), (4.0, 7.5), (9.5, 8.0), (10.0, 2.5), (7.0, 4.0)])
+    now = _furnished_room([(3.0, 3.5), (5.0, 6.5), (8.0, 6.0), (9.0, 3.5), (4.5, 2.5), (7.5, 8.5),
+                           (2.5, 8.0), (10.5, 6.0)])
+    truth = Pose2D(6.0, 5.0, 0.3)
+    scan = ray_scan(now, truth, fov_deg=360, beams=720, range_max=25.0, noise=0.01, seed=4)
+    hint = Pose2D(6.4, 4.7, 0.5)
+    result = ScanMatcher(built, RelocalizationParams()).match(scan, hint)
+    assert result.confident, result.message
+    assert_close(result.pose, truth)
+    assert "things the map lacks" in result.message
+    as_if_unchanged = RelocalizationParams(change_gap=1e9, furniture_area=0.0)
+    assert not ScanMatcher(built, as_if_unchanged).match(scan, hint).confident
+
+
+def test_a_floor_changed_beyond_recognition_is_not_trusted():
+    """When most beams end on things the map lacks, too little is left to judge the pose by."""
+    built = _furnished_room([])
+    now = _furnished_room([(x, y) for x in np.arange(4.5, 8.0, 0.9) for y in (4.0, 6.0)]
+                          + [(x, 5.0) for x in (4.5, 7.7)])
+    truth = Pose2D(6.1, 5.0, 0.0)
+    scan = ray_scan(now, truth, fov_deg=360, beams=720, range_max=25.0, seed=5)
+    result = ScanMatcher(built, RelocalizationParams()).match(scan, Pose2D(6.3, 5.2, 0.1))
+    assert not result.confident
+    assert "too much has changed" in result.message
