@@ -33,7 +33,6 @@ import argparse
 import csv
 import dataclasses
 import math
-import os
 import subprocess
 import sys
 import tempfile
@@ -42,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from shared_folder import SHARED
 
 from bomc_bt.config import load_config
 from bomc_bt.coverage_plan import _leg, plan_coverage
@@ -99,7 +99,7 @@ def floors(args, tmp: Path) -> list[tuple[str, Path, Pose2D, np.ndarray | None]]
         data = yaml.safe_load(world.read_text())
         out.append((f"office {size} s{seed}", tmp / data["map"], Pose2D(*data["start"][:2], 0.0),
                     world_objects(world) if args.known else None))
-    shared = Path(os.environ.get("BOMC_SHARED", Path(__file__).resolve().parents[2] / "shared")) / "worlds"
+    shared = SHARED / "worlds"
     for name in args.shared:
         data = yaml.safe_load((shared / f"{name}.yaml").read_text())
         out.append((name, shared / data["map"], Pose2D(*data["start"][:2], 0.0),

@@ -30,6 +30,8 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
+from shared_folder import SHARED
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -148,7 +150,7 @@ def ratios(rows: list[Row]) -> list[str]:
 def floors(args, root: Path) -> list[tuple[str, Path]]:
     out = []
     if not args.no_office_s:
-        shared = Path(os.environ.get("BOMC_SHARED", REPO.parent / "shared")) / "worlds" / "office-s.yaml"
+        shared = SHARED / "worlds" / "office-s.yaml"
         if shared.exists():
             out.append(("office-s", shared))
         else:

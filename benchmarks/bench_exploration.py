@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import statistics
 import sys
 import tempfile
@@ -43,6 +42,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import yaml
+from shared_folder import SHARED
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -54,7 +54,6 @@ from bomc_bt.run import run_build  # noqa: E402
 from bomc_bt.world import World, load_world  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED = Path(os.environ["BOMC_SHARED"]) if os.environ.get("BOMC_SHARED") else REPO.parent / "shared"
 BASELINE = "baseline"
 # two-sided 95 % quantiles of Student's t, by degrees of freedom (normal beyond 30)
 T95 = [12.71, 4.30, 3.18, 2.78, 2.57, 2.45, 2.36, 2.31, 2.26, 2.23, 2.20, 2.18, 2.16, 2.14, 2.13, 2.12,

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from shared_folder import SHARED
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -65,7 +66,7 @@ def median_ms(fn, runs: int) -> tuple[float, object]:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    shared = Path(__file__).resolve().parents[2] / "shared"
+    shared = SHARED
     parser.add_argument("--map", type=Path, default=shared / "maps" / "hospital.yaml")
     parser.add_argument("--runs", type=int, default=21, help="timed runs of the fast version")
     parser.add_argument("--ref-runs", type=int, default=3, help="timed runs of the reference")

@@ -20,6 +20,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from shared_folder import SHARED
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bomc_bt.exploration.coverage import map_coverage, solid_mask  # noqa: E402
@@ -28,7 +30,7 @@ from bomc_bt.run import MissionResult, run_build, run_monitor  # noqa: E402
 from bomc_bt.site import Site  # noqa: E402
 from bomc_bt.world import load_world  # noqa: E402
 
-WORLDS_DIR = Path(__file__).resolve().parents[2] / "shared" / "worlds"
+WORLDS_DIR = SHARED / "worlds"
 DEFAULT_WORLDS = [str(WORLDS_DIR / "office-s.yaml"), str(WORLDS_DIR / "lab-b.yaml")]
 
 

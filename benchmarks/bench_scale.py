@@ -24,13 +24,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import resource
 import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from shared_folder import SHARED
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -158,8 +159,7 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(measure_floor(f"generated {args.size} seed {args.seed}", world, tmp / "site-gen",
                                   args.sessions, config))
         if not args.no_office_s:
-            shared = Path(os.environ.get("BOMC_SHARED", Path(__file__).resolve().parents[2] / "shared"))
-            shared = shared / "worlds" / "office-s.yaml"
+            shared = SHARED / "worlds" / "office-s.yaml"
             if shared.exists():
                 rows.append(measure_floor("office-s", shared, tmp / "site-office-s", None, config))
             else:

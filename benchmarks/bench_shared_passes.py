@@ -15,6 +15,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from shared_folder import SHARED
+
 from bomc_bt import run
 from bomc_bt.evaluate_site import evaluate_session
 
@@ -24,7 +26,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--world", action="append", default=[], metavar="NAME", help="a shared world (lab-b, office-s)")
     ap.add_argument("--build-seed", action="append", type=int, default=[], metavar="N", help="build seed (default 0)")
     ap.add_argument("--sessions", type=int, default=3)
-    ap.add_argument("--shared", default=str(Path(__file__).resolve().parents[2] / "shared"), help="shared folder")
+    ap.add_argument("--shared", default=str(SHARED), help="shared folder")
     args = ap.parse_args(argv)
     print(f"{'world':10s} {'build':>5s} {'session':>7s} {'sim s':>8s} {'path m':>8s} {'F1':>6s}")
     for name in args.world or ["lab-b"]:

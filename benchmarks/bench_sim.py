@@ -13,9 +13,9 @@ from __future__ import annotations
 import argparse
 import time
 from collections import defaultdict
-from pathlib import Path
 
 import numpy as np
+from shared_folder import SHARED
 
 from bomc_bt import planner as planner_module
 from bomc_bt.geometry import Pose2D
@@ -25,7 +25,7 @@ from bomc_bt.sim.lidar import DistanceField, _dense, naive_trace
 from bomc_bt.sim.robot import SimRobot
 from bomc_bt.world import load_world
 
-DEFAULT_WORLD = Path(__file__).resolve().parents[2] / "shared" / "worlds" / "office-s.yaml"
+DEFAULT_WORLD = SHARED / "worlds" / "office-s.yaml"
 TIMES: dict[str, float] = defaultdict(float)
 
 

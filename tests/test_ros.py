@@ -20,6 +20,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from shared_data import SHARED
 
 from bomc_bt.cli import main as bomc
 from bomc_bt.errors import BomcError, MissionFailed
@@ -49,7 +50,7 @@ if not ROS_MISSING and shutil.which("roscore") is None:
     ROS_MISSING = "roscore is not on PATH (apt-get install ros-core)"
 
 ROOT = Path(__file__).resolve().parent.parent
-WORLD = Path(__file__).resolve().parents[2] / "shared" / "worlds" / "lab-b.yaml"
+WORLD = SHARED / "worlds" / "lab-b.yaml"
 SIM_PARAMS = dict(
     instances_topic="/bomc_sim/instances", frame_timeout=2.0, clock_timeout=5.0, server_timeout=10.0
 )

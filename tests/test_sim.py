@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from shared_data import SHARED
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import FREE, OCCUPIED, OccupancyGrid
@@ -20,7 +21,6 @@ from bomc_bt.sim.scene import Scene
 from bomc_bt.world import Change, DuringChange, Obstacle, World, WorldObject, load_world
 
 RES = 0.05
-SHARED = Path(__file__).resolve().parents[2] / "shared"
 LAB_B = SHARED / "worlds" / "lab-b.yaml"
 
 

@@ -11,6 +11,7 @@ import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from shared_data import SHARED
 from yaml_fuzz import paths_of, yaml_values
 
 from bomc_bt.errors import BomcError
@@ -19,7 +20,6 @@ from bomc_bt.world import Change, Obstacle, WorldObject, apply_change, load_worl
 from bomc_bt.worldgen import clearance_map, generate_world, reachable_free
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED = Path(__file__).resolve().parents[2] / "shared"
 TEST_WORLDS = Path(__file__).resolve().parent / "worlds"
 
 
