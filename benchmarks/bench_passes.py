@@ -10,6 +10,10 @@ simulated and wall pass time and the store's size.
 
     python benchmarks/bench_passes.py --size 36x28 --seed 501 --sessions 12 --churn 0.05
     python benchmarks/bench_passes.py --size 36x28 --seed 501 --sessions 3 --static --modes robust
+    python benchmarks/bench_passes.py --map ../shared/maps/warehouse.yaml --seed 7 --sessions 12 --churn 0.1
+
+With ``--map`` the world is an existing occupancy map furnished by ``bomc world map``
+(labelled boxes over its free floor, the same churn per session) instead of an office.
 
 Wall times are of the whole pass (simulator, rendering and perception included) on
 whatever machine runs it. ``--keep DIR`` leaves the world and the sites there.
@@ -98,6 +102,29 @@ def format_row(r: PassRow) -> str:
             f"{r.flipping_nodes:>5} {r.sim_s:>7.0f} {r.wall_s:>7.1f} {r.store_mb:>8.2f}")
 
 
+def make_world(args: argparse.Namespace, root: Path) -> Path:
+    """The benchmark's world: a generated office, or the given map furnished (``bomc world map``)."""
+    churn = 0.0 if args.static else args.churn
+    if args.map:
+        from bomc_bt.grid import load_map
+        from bomc_bt.worldgen import generate_world, reachable_free
+        from bomc_bt.worldgen_cli import DEFAULT_CATEGORIES, FLOOR_PER_OBJECT
+
+        grid = load_map(args.map)
+        n = args.objects or max(1, round(float(reachable_free(grid).sum()) * grid.resolution ** 2 / FLOOR_PER_OBJECT))
+        world = root / "world.yaml"
+        generate_world(args.map, args.seed, n, DEFAULT_CATEGORIES.split(","), world, sessions=args.sessions,
+                       churn=churn)
+        return world
+    from bomc_bt.officegen import OfficeParams, generate_office
+
+    width, height = (float(v) for v in args.size.lower().split("x"))
+    world = root / "office.yaml"
+    generate_office(OfficeParams(width=width, height=height, seed=args.seed, sessions=args.sessions,
+                                 churn=args.churn, static=args.static), world)
+    return world
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--size", default="36x28", help="WxH of the office, metres")
@@ -108,21 +135,20 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--modes", default="robust,paper", help="association modes, comma-separated")
     p.add_argument("--config", action="append", default=[], help="config file layered over the defaults")
     p.add_argument("--keep", help="directory to keep the world and sites in")
+    p.add_argument("--map", help="furnish this map_server map instead of generating an office")
+    p.add_argument("--objects", type=int, default=None, help="with --map: how many objects (default one per 20 m^2)")
     args = p.parse_args(argv)
     from bomc_bt import run
-    from bomc_bt.officegen import OfficeParams, generate_office
 
-    width, height = (float(v) for v in args.size.lower().split("x"))
     tmp = tempfile.TemporaryDirectory()
     root = Path(args.keep) if args.keep else Path(tmp.name)
     root.mkdir(parents=True, exist_ok=True)
-    world = root / "office.yaml"
-    generate_office(OfficeParams(width=width, height=height, seed=args.seed, sessions=args.sessions,
-                                 churn=args.churn, static=args.static), world)
+    world = make_world(args, root)
     build_site = root / "build"
     start = time.perf_counter()
     build = run.run_build(world, build_site, seed=args.seed, config=run.build_config(args.config))
-    print(f"# office {args.size} seed {args.seed}, {args.sessions} sessions, churn "
+    floor = Path(args.map).stem if args.map else f"office {args.size}"
+    print(f"# {floor} seed {args.seed}, {args.sessions} sessions, churn "
           f"{0 if args.static else args.churn}; build {build.reason or 'done'} at {build.sim_time:.0f} s simulated, "
           f"{time.perf_counter() - start:.0f} s wall", flush=True)
     print(HEADER, flush=True)

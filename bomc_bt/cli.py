@@ -91,6 +91,9 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--resolution", type=float, default=0.05, help="map metres per cell")
     o.add_argument("--hot-rooms", type=float, default=0.0, help="share of rooms where most changes happen (default 0)")
     o.add_argument("--force", action="store_true", help="replace existing files")
+    from bomc_bt.worldgen_cli import add_parser as add_map_world
+
+    add_map_world(kinds, _Parser)
 
     v = sub.add_parser("view", help="browse a finished site in the web viewer")
     v.add_argument("site", help="site directory")
@@ -193,7 +196,10 @@ def _dispatch(args) -> int:
 
         return run_fleet_command(args)
     if args.command == "world":
-        from bomc_bt.officegen.cli import generate_from_args
+        if args.kind == "map":
+            from bomc_bt.worldgen_cli import generate_from_args
+        else:
+            from bomc_bt.officegen.cli import generate_from_args
 
         print(generate_from_args(args))
         return 0

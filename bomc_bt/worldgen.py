@@ -3,14 +3,24 @@
 :func:`generate_world` scatters labelled boxes over the free space of a map_server map
 (only over the largest connected free region, so every object is reachable from the
 start), keeps each one clear of walls, of the others and of the start pose, and writes a
-version-1 world file with a session 2 (removals, moves, additions), a session 3 (removals,
-additions, an unlabelled obstacle) and intra-session changes in sessions 2 and 3. The same
-seed always gives the same file. The result is loaded back through
+version-1 world file. Two recipes for what changes between passes:
+
+- the default (``churn`` None), three sessions as the tests know them: a session 2 with
+  removals, moves and additions, a session 3 with removals, additions and an unlabelled
+  obstacle, an intra-session change in each (longer worlds repeat session 3's recipe);
+- ``churn`` (a share of the objects per session, ``bomc world map``): before every session
+  k >= 2 about a third of that share is removed, a third moved and the rest added, half of
+  those objects removed earlier coming back (at their old place when it is free); every
+  third session an obstacle for that session only; one change during every pass. 0 is a
+  static world.
+
+The same seed always gives the same file. The result is loaded back through
 :func:`bomc_bt.world.load_world`, so a generator bug surfaces as a validation error.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import os
@@ -20,14 +30,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 import yaml
 
 from bomc_bt.errors import BomcError
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid, load_map
-from bomc_bt.world import FORMAT_VERSION, World, load_world, wall_mask
+from bomc_bt.world import FORMAT_VERSION, World, load_world
+from bomc_bt.worldgen_placer import PlacementRules, Placer, clearance_map, reachable_free
 
 # Typical box (x, y, z extents, m) per category; the centre stands at half the height
 # unless the category hangs higher (a television on a wall mount or stand).
@@ -51,7 +61,8 @@ FALLBACK_SIZE = (0.5, 0.5, 0.8)
 class WorldGenParams:
     """Tunables of the generator (all lengths in metres, times in simulated seconds)."""
 
-    clearance: float = 0.15  # free margin kept around each object's bounding circle
+    # what a placement leaves free: clearance, a way for the robot, a view of each object
+    placement: PlacementRules = field(default_factory=PlacementRules)
     start_keepout: float = 1.0  # free radius kept around the start pose
     remove_fraction: float = 0.15  # share of objects removed before session 2 (at least one)
     move_fraction: float = 0.15  # share of objects moved before session 2 (at least one)
@@ -59,25 +70,11 @@ class WorldGenParams:
     obstacle_size: tuple[float, float] = (1.0, 0.6)
     obstacle_height: float = 1.0
     during_window: tuple[float, float] = (20.0, 120.0)  # when intra-session changes fire
+    # [m^2/s] floor a monitor pass covers per simulated second, roughly: the churn recipe times
+    # its change during a pass at 10-50 % of the pass this gives for the map's reachable floor
+    pass_rate: float = 1.0
     wall_height: float = 2.5
     sizes: dict[str, tuple[float, float, float]] = field(default_factory=lambda: dict(DEFAULT_SIZES))
-
-
-def reachable_free(grid: OccupancyGrid) -> np.ndarray:
-    """The largest 4-connected region of free cells (bool mask like ``grid.data``)."""
-    free = (~wall_mask(grid)).astype(np.uint8)
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=4)
-    if count <= 1:
-        return np.zeros_like(free, dtype=bool)
-    biggest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    return labels == biggest
-
-
-def clearance_map(mask: np.ndarray, resolution: float) -> np.ndarray:
-    """Metres from each cell of ``mask`` to the nearest cell outside it (the image edge counts)."""
-    padded = np.pad(mask.astype(np.uint8), 1)
-    dist = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
-    return dist.astype(np.float64) * resolution
 
 
 def largest_clearance_pose(grid: OccupancyGrid) -> Pose2D:
@@ -90,39 +87,6 @@ def largest_clearance_pose(grid: OccupancyGrid) -> Pose2D:
     return Pose2D(float(x), float(y), 0.0)
 
 
-class _Placer:
-    """Draws non-overlapping discs over the reachable free space, deterministically for a seed.
-
-    Placed discs are painted into the free mask and the clearance map is recomputed (one
-    distance transform, milliseconds), so a candidate centre is valid exactly when its
-    clearance covers its own radius plus the margin -- no rejection sampling that could
-    miss the last free corner of a cluttered map.
-    """
-
-    def __init__(self, grid: OccupancyGrid, rng: np.random.Generator, params: WorldGenParams):
-        self.grid, self.rng, self.params = grid, rng, params
-        self.free = reachable_free(grid).astype(np.uint8)  # 1 = free and not yet taken
-        self._clear: np.ndarray | None = None
-
-    def reserve(self, x: float, y: float, radius: float) -> None:
-        r, c = self.grid.world_to_cell(x, y)
-        cv2.circle(self.free, (int(c), int(r)), int(math.ceil(radius / self.grid.resolution)), 0, -1)
-        self._clear = None
-
-    def place(self, radius: float) -> tuple[float, float] | None:
-        """A free centre for a disc of ``radius`` (plus the clearance margin), or None."""
-        if self._clear is None:
-            self._clear = clearance_map(self.free > 0, self.grid.resolution)
-        cells = np.flatnonzero(self._clear >= radius + self.params.clearance)
-        if cells.size == 0:
-            return None
-        r, c = np.unravel_index(int(cells[self.rng.integers(cells.size)]), self._clear.shape)
-        x, y = self.grid.cell_to_world(r, c)
-        x, y = round(float(x), 3), round(float(y), 3)
-        self.reserve(x, y, radius)
-        return x, y
-
-
 def _slug(category: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", category.lower()).strip("-") or "object"
 
@@ -131,12 +95,13 @@ def _slug(category: str) -> str:
 class _Builder:
     """Keeps the evolving object set so every generated change refers to what exists then."""
 
-    placer: _Placer
+    placer: Placer
     params: WorldGenParams
     rng: np.random.Generator
     categories: list[str]
     grid_file: Path
-    present: dict[str, dict[str, Any]] = field(default_factory=dict)
+    present: dict[str, dict[str, Any]] = field(default_factory=dict)  # copies, as they stand now
+    removed: dict[str, dict[str, Any]] = field(default_factory=dict)  # taken away (churn recipe)
     counters: dict[str, int] = field(default_factory=dict)
     made: int = 0
 
@@ -154,7 +119,7 @@ class _Builder:
         obj = {"name": f"{slug}-{self.counters[slug]}", "category": category,
                "position": [xy[0], xy[1], round(z, 3)], "size": list(size),
                "yaw": round(float(self.rng.uniform(-math.pi, math.pi)), 3)}
-        self.present[obj["name"]] = obj
+        self.present[obj["name"]] = copy.deepcopy(obj)
         return obj
 
     def pick(self, count: int) -> list[str]:
@@ -189,39 +154,72 @@ class _Builder:
         lo, hi = self.params.during_window
         return round(float(self.rng.uniform(lo, hi)), 1)
 
+    # -- the churn recipe: objects leave, move and come back, their space freed and taken again --
+    def _radius(self, obj: dict[str, Any]) -> float:
+        return 0.5 * math.hypot(obj["size"][0], obj["size"][1])
+
+    def _discs(self, skip: str = "") -> list[tuple[float, float, float]]:
+        return [(o["position"][0], o["position"][1], self._radius(o)) for n, o in self.present.items() if n != skip]
+
+    def take_away(self, name: str) -> None:
+        obj = self.present.pop(name)
+        self.removed[name] = obj
+        self.placer.release(obj["position"][0], obj["position"][1], self._radius(obj), self._discs())
+
+    def relocate(self, name: str) -> list[float] | None:
+        """Move a present object to a free place elsewhere; None (it stays) when there is none."""
+        obj = self.present[name]
+        x, y, r = obj["position"][0], obj["position"][1], self._radius(obj)
+        self.placer.release(x, y, r, self._discs(skip=name))
+        xy = self.placer.place(r)
+        if xy is None:
+            self.placer.reserve(x, y, r)
+            return None
+        obj["position"] = [xy[0], xy[1], obj["position"][2]]
+        return [xy[0], xy[1]]
+
+    def bring_back(self, name: str) -> dict[str, Any] | None:
+        """An object removed earlier, at its old place when that is free, else elsewhere."""
+        obj = self.removed[name]
+        x, y, r = obj["position"][0], obj["position"][1], self._radius(obj)
+        if self.placer.fits(x, y, r):
+            self.placer.reserve(x, y, r)
+        else:
+            xy = self.placer.place(r)
+            if xy is None:
+                return None
+            obj["position"] = [xy[0], xy[1], obj["position"][2]]
+        self.present[name] = self.removed.pop(name)
+        return copy.deepcopy(obj)
+
 
 def generate_world(grid_yaml_path: str | Path, seed: int, n_objects: int,
                    categories: Sequence[str] | Mapping[str, Sequence[float]], out_path: str | Path,
-                   params: WorldGenParams | None = None, name: str | None = None) -> World:
-    """Write a random three-session world over ``grid_yaml_path`` to ``out_path`` and load it.
+                   params: WorldGenParams | None = None, name: str | None = None, sessions: int = 3,
+                   churn: float | None = None) -> World:
+    """Write a random world of ``sessions`` sessions over ``grid_yaml_path`` to ``out_path`` and load it.
 
     ``categories`` are used round-robin (balanced classes); a mapping gives each its box
     size ``[x, y, z]``, otherwise :data:`DEFAULT_SIZES` (or a generic box) is used.
+    ``churn``: None for the fixed recipe, else the share of the objects changed before each
+    session (0: nothing ever changes); see the module's docstring.
     """
     params = dataclasses.replace(params) if params else WorldGenParams()
     grid_file, out_path = Path(grid_yaml_path), Path(out_path)
     if n_objects < 1 or not categories:
         raise BomcError("need at least one object and one category", out_path)
+    if sessions < 1 or (churn is not None and not 0.0 <= churn <= 0.5):
+        raise BomcError("need at least one session and a churn of 0 to 0.5", out_path)
     if isinstance(categories, Mapping):
         params.sizes = {**params.sizes, **{k: tuple(float(v) for v in s) for k, s in categories.items()}}
     grid = load_map(grid_file)
     rng = np.random.default_rng(seed)
     start = largest_clearance_pose(grid)
-    placer = _Placer(grid, rng, params)
-    placer.reserve(start.x, start.y, params.start_keepout)
+    placer = Placer(grid, rng, params.placement, (start.x, start.y), params.start_keepout)
     b = _Builder(placer, params, rng, list(categories), grid_file)
 
     objects = [b.new_object() for _ in range(n_objects)]
-    session2: dict[str, Any] = {"remove": b.remove(max(1, round(n_objects * params.remove_fraction)))}
-    session2["move"] = b.move(max(1, round(n_objects * params.move_fraction)))
-    session2["add"] = [b.new_object() for _ in range(params.added)]
-    during = [{"session": 2, "at": b.at(), "move": b.move(1)}]
-    session3: dict[str, Any] = {"remove": b.remove(max(1, round(n_objects * params.remove_fraction / 2)))}
-    session3["add"] = [b.new_object() for _ in range(max(1, params.added // 2))]
-    obstacle = b.obstacle()
-    session3["obstacles"] = [obstacle] if obstacle else []
-    during.append({"session": 3, "at": b.at(), "remove": b.remove(1), "add": [b.new_object()]})
-
+    timeline = _fixed_recipe(b, n_objects, sessions) if churn is None else _churn_recipe(b, sessions, churn)
     doc = {
         "version": FORMAT_VERSION,
         "name": name or f"{grid_file.stem}-gen{seed}",
@@ -229,13 +227,86 @@ def generate_world(grid_yaml_path: str | Path, seed: int, n_objects: int,
         "start": [round(start.x, 3), round(start.y, 3), 0.0],
         "wall_height": params.wall_height,
         "objects": objects,
-        "sessions": {2: _drop_empty(session2), 3: _drop_empty(session3)},
-        "during": [_drop_empty(d) for d in during if any(d.get(k) for k in ("remove", "move", "add"))],
+        "sessions": {k: _drop_empty(c) for k, c in timeline[0].items()},
+        "during": [_drop_empty(d) for d in timeline[1] if any(d.get(k) for k in ("remove", "move", "add"))],
     }
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    header = f"# generated by bomc_bt.worldgen.generate_world(seed={seed}, n_objects={n_objects})\n"
+    header = (f"# generated by bomc_bt.worldgen.generate_world(seed={seed}, n_objects={n_objects}, "
+              f"sessions={sessions}, churn={churn})\n")
     out_path.write_text(header + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=110))
     return load_world(out_path)
+
+
+Timeline = tuple[dict[int, dict[str, Any]], list[dict[str, Any]]]
+
+
+def _fixed_recipe(b: _Builder, n_objects: int, sessions: int) -> Timeline:
+    """Session 2: removals, moves, additions; session 3 (and later): removals, additions, an obstacle."""
+    p = b.params
+    changes: dict[int, dict[str, Any]] = {}
+    during: list[dict[str, Any]] = []
+    for k in range(2, sessions + 1):
+        if k == 2:
+            change: dict[str, Any] = {"remove": b.remove(max(1, round(n_objects * p.remove_fraction)))}
+            change["move"] = b.move(max(1, round(n_objects * p.move_fraction)))
+            change["add"] = [b.new_object() for _ in range(p.added)]
+            during.append({"session": 2, "at": b.at(), "move": b.move(1)})
+        else:
+            change = {"remove": b.remove(max(1, round(n_objects * p.remove_fraction / 2)))}
+            change["add"] = [b.new_object() for _ in range(max(1, p.added // 2))]
+            obstacle = b.obstacle()
+            change["obstacles"] = [obstacle] if obstacle else []
+            during.append({"session": k, "at": b.at(), "remove": b.remove(1), "add": [b.new_object()]})
+        changes[k] = change
+    return changes, during
+
+
+def _churn_recipe(b: _Builder, sessions: int, churn: float) -> Timeline:
+    """Before each session a ``churn`` share changes (a third removed, a third moved, the rest
+    added, half of those coming back); an obstacle every third session; one change per pass."""
+    changes: dict[int, dict[str, Any]] = {}
+    during: list[dict[str, Any]] = []
+    for k in range(2, sessions + 1):
+        if churn == 0:
+            changes[k] = {}
+            continue
+        n = int(round(churn * len(b.present)))
+        n_remove, n_move = max(1, round(0.3 * n)), max(1, round(0.3 * n))
+        n_add = max(1, n - n_remove - n_move)
+        removed = b.pick(n_remove)
+        for name in removed:
+            b.take_away(name)
+        moved = {name: xy for name in b.pick(n_move) if (xy := b.relocate(name)) is not None}
+        pool = sorted(set(b.removed) - set(removed))
+        n_back = min(len(pool), max(1, n_add // 2))
+        back = [pool[int(i)] for i in sorted(b.rng.choice(len(pool), size=n_back, replace=False))] if n_back else []
+        added = [got for name in back if (got := b.bring_back(name)) is not None]
+        added += [b.new_object() for _ in range(n_add - len(back))]
+        change: dict[str, Any] = {"remove": removed, "move": moved, "add": added}
+        if k % 3 == 0:
+            obstacle = b.obstacle()
+            change["obstacles"] = [obstacle] if obstacle else []
+        changes[k] = change
+        during.append(_during_change(b, k))
+    return changes, during
+
+
+def _during_change(b: _Builder, k: int) -> dict[str, Any]:
+    """One object removed, moved or added while pass ``k`` runs."""
+    floor = float(b.placer.reachable.sum()) * b.placer.grid.resolution ** 2
+    at = round(float(b.rng.uniform(0.1, 0.5)) * max(60.0, floor / b.params.pass_rate), 1)
+    entry: dict[str, Any] = {"session": k, "at": at}
+    kind = ("remove", "move", "add")[int(b.rng.integers(3))]
+    if kind == "add" or not b.present:
+        entry["add"] = [b.new_object()]
+    elif kind == "remove":
+        entry["remove"] = b.pick(1)
+        b.take_away(entry["remove"][0])
+    else:
+        name = b.pick(1)[0]
+        xy = b.relocate(name)
+        entry["move"] = {name: xy} if xy is not None else {}
+    return entry
 
 
 def _drop_empty(change: dict[str, Any]) -> dict[str, Any]:

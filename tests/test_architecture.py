@@ -39,6 +39,7 @@ ALGORITHM_MODULES = (
     "bomc_bt.scan_likelihood",
     "bomc_bt.world",
     "bomc_bt.worldgen",
+    "bomc_bt.worldgen_placer",
     "bomc_bt.officegen",
     "bomc_bt.geometry",
     "bomc_bt.grid",
