@@ -44,6 +44,7 @@ class PassRow:
     true_changes: int
     net_changes: int
     phantom: int
+    late: int  # false positives that report a change the previous pass missed (not phantoms)
     raw_changes: int
     flipping_nodes: int
     sim_s: float
@@ -83,6 +84,7 @@ def run_mode(world: Path, build_site: Path, site: Path, mode: str, sessions: int
             events = store.events(session=n)
         ov = changes.overall
         rows.append(PassRow(mode, n, f1, ov.precision, ov.recall, ov.f1, ov.gt, ov.mapped, changes.phantom,
+                            len(changes.late),
                             sum(changes.raw_events.get(k, 0) for k in CHANGE_EVENT_KINDS), flipping_nodes(events),
                             result.sim_time, wall, store_megabytes(site)))
         print(format_row(rows[-1]), flush=True)
@@ -90,7 +92,7 @@ def run_mode(world: Path, build_site: Path, site: Path, mode: str, sessions: int
 
 
 HEADER = (f"{'mode':<7} {'pass':>4} {'obj F1':>6} {'chg P':>6} {'chg R':>6} {'chg F1':>6} {'true':>5} {'net':>5} "
-          f"{'phantom':>7} {'raw':>5} {'flips':>5} {'sim s':>7} {'wall s':>7} {'store MB':>8}")
+          f"{'phantom':>7} {'late':>4} {'raw':>5} {'flips':>5} {'sim s':>7} {'wall s':>7} {'store MB':>8}")
 
 
 def format_row(r: PassRow) -> str:
@@ -98,7 +100,7 @@ def format_row(r: PassRow) -> str:
         return "    -" if x is None else f"{x:.3f}"
 
     return (f"{r.mode:<7} {r.session:>4} {f(r.object_f1):>6} {f(r.change_p):>6} {f(r.change_r):>6} "
-            f"{f(r.change_f1):>6} {r.true_changes:>5} {r.net_changes:>5} {r.phantom:>7} {r.raw_changes:>5} "
+            f"{f(r.change_f1):>6} {r.true_changes:>5} {r.net_changes:>5} {r.phantom:>7} {r.late:>4} {r.raw_changes:>5} "
             f"{r.flipping_nodes:>5} {r.sim_s:>7.0f} {r.wall_s:>7.1f} {r.store_mb:>8.2f}")
 
 

@@ -35,6 +35,12 @@ reported as removal plus addition, or a real removal reported twice, is wrong bu
 phantom; a removal where nothing changed (a duplicate node cleaned up, an object the
 robot failed to see) is.
 
+**Late**: a false positive that reports a true change of the *previous* pass, one that
+pass missed (a chair taken away during pass N-1 after the robot had looked there, seen
+gone in pass N), has a real change behind it: it is wrong for this pass (a false
+positive) but no phantom, and is counted apart (``late``). The miss stays counted in the
+previous pass.
+
 Session 1 has no previous pass: it is scored against the empty map, so every object
 present when it ended is an addition and ``added`` reads like the object protocol.
 
@@ -100,6 +106,7 @@ class ChangeResult:
     missed: list[ObjectChange] = field(default_factory=list)  # false negatives
     wrong: list[ObjectChange] = field(default_factory=list)  # false positives, phantoms included
     phantoms: list[ObjectChange] = field(default_factory=list)
+    late: list[ObjectChange] = field(default_factory=list)  # false positives reporting the previous pass's misses
     first_seen: int = 0  # nodes new to the map where no earlier pass looked: reported apart, not scored
 
 
@@ -187,8 +194,12 @@ def _phantoms(wrong: list[ObjectChange], truth: list[ObjectChange], threshold: T
 
 def score_changes(truth: Sequence[ObjectChange], net: Sequence[ObjectChange], threshold: Threshold,
                   session: int, previous: int | None = None,
-                  raw_events: Mapping[str, int] | None = None) -> ChangeResult:
-    """Match the map's net changes to the true ones and score them per kind."""
+                  raw_events: Mapping[str, int] | None = None,
+                  missed_before: Sequence[ObjectChange] = ()) -> ChangeResult:
+    """Match the map's net changes to the true ones and score them per kind.
+
+    ``missed_before``: the true changes the previous pass missed, which make a false
+    positive near them late rather than a phantom."""
     kinds: dict[str, ClassScores] = {}
     matches: list[ChangeMatch] = []
     missed: list[ObjectChange] = []
@@ -208,6 +219,8 @@ def score_changes(truth: Sequence[ObjectChange], net: Sequence[ObjectChange], th
         kinds[kind] = scores(len(kind_truth), len(kind_net), tp)
     overall = scores(sum(s.gt for s in kinds.values()), sum(s.mapped for s in kinds.values()),
                      sum(s.tp for s in kinds.values()))
-    phantoms = _phantoms(wrong, list(truth), threshold)
+    unexplained = _phantoms(wrong, list(truth), threshold)
+    phantoms = _phantoms(unexplained, list(missed_before), threshold)
+    late = [c for c in unexplained if all(c is not p for p in phantoms)]
     return ChangeResult(session, previous, kinds, overall, len(phantoms), dict(raw_events or {}),
-                        matches, missed, wrong, phantoms)
+                        matches, missed, wrong, phantoms, late)

@@ -41,9 +41,17 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
         if session not in recorded:
             known = ", ".join(map(str, sorted(recorded))) or "none"
             raise BomcError(f"session {session} was not recorded (recorded: {known})", store.path, "--session")
-        previous = max((n for n in recorded if n < session), default=None)
         history = store.events(until=session)
     threshold = ObjectGraph(config.association).threshold
+    previous = max((n for n in recorded if n < session), default=None)
+    missed_before = [] if previous is None else _score(world, recorded, history, previous, threshold, []).missed
+    return _score(world, recorded, history, session, threshold, missed_before)
+
+
+def _score(world: World, recorded: dict, history: list, session: int, threshold, missed_before) -> ChangeResult:
+    """Pass ``session`` against the previous recorded one (``history``: events up to at least its end)."""
+    previous = max((n for n in recorded if n < session), default=None)
+    history = [e for e in history if e.session <= session]
 
     def truth_at_end(n: int | None) -> dict[str, tuple[str, np.ndarray]]:
         if n is None:
@@ -54,7 +62,7 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
     truth = true_changes(truth_at_end(previous), truth_at_end(session), threshold)
     net = reported_changes(history, previous, threshold)
     events = [e for e in history if e.session == session]
-    result = score_changes(truth, net, threshold, session, previous, raw_event_counts(events))
+    result = score_changes(truth, net, threshold, session, previous, raw_event_counts(events), missed_before)
     result.first_seen = first_seen_count(history, previous, threshold)
     return result
 
@@ -74,6 +82,7 @@ def changes_to_json(result: ChangeResult) -> dict[str, Any]:
     out.update({kind: _kind_json(result.kinds[kind]) for kind in CHANGE_KINDS})
     out["overall"] = _kind_json(result.overall)
     out["phantom"] = result.phantom
+    out["late"] = len(result.late)
     out["raw_events"] = dict(result.raw_events)
     out["first_seen"] = result.first_seen
     return out
@@ -96,9 +105,10 @@ def format_changes(result: ChangeResult) -> str:
         lines.append(f"{name:<16} {s.gt:>4} {s.mapped:>4} {s.tp:>4} {s.fp:>4} {s.fn:>4} "
                      f"{f(s.precision):>6} {f(s.recall):>6} {f(s.f1):>6}")
     raw = ", ".join(f"{k} {v}" for k, v in result.raw_events.items())
-    lines.append(f"phantom {result.phantom}; first seen {result.first_seen} (new to the map, not scored); "
+    lines.append(f"phantom {result.phantom}; late {len(result.late)} (the previous pass's misses); "
+                 f"first seen {result.first_seen} (new to the map, not scored); "
                  f"raw events {raw or 'none'}")
-    phantom_ids = {id(c) for c in result.phantoms}
+    label = {id(c): "phantom:" for c in result.phantoms} | {id(c): "late:   " for c in result.late}
     lines += [f"  missed:  {describe(c)}" for c in result.missed]
-    lines += [f"  {'phantom:' if id(c) in phantom_ids else 'wrong:  '} {describe(c)}" for c in result.wrong]
+    lines += [f"  {label.get(id(c), 'wrong:  ')} {describe(c)}" for c in result.wrong]
     return "\n".join(lines)

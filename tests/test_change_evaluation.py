@@ -135,6 +135,23 @@ def test_a_phantom_is_a_report_no_true_change_comes_near():
     assert counts(twice, "removed") == (1, 1, 0) and twice.phantom == 0
 
 
+def test_a_change_the_previous_pass_missed_reported_now_is_late_not_a_phantom():
+    """A bin taken away during pass 1 after the robot had looked there is seen gone in pass 2:
+    wrong for pass 2 (nothing changed since pass 1 ended) but no ghost; a removal where nothing
+    ever changed stays a phantom."""
+    truth = true_changes({"bin-1": obj("bin", 0.0), "bin-2": obj("bin", 4.0)},
+                         {"bin-1": obj("bin", 0.0), "bin-2": obj("bin", 4.0)}, d07)
+    net = pass_two([node(1, "bin", 0.0), node(2, "bin", 4.0), node(3, "bin", 8.0)],
+                   [node(1, "bin", 0.0), node(2, "bin", 4.0)], [ev("removed", 3, "bin", 8.0)])
+    missed_in_pass_1 = true_changes({"bin-3": obj("bin", 8.1)}, {}, d07)
+    late = score_changes(truth, net, d07, 2, 1, missed_before=missed_in_pass_1)
+    assert counts(late, "removed") == (0, 1, 0)  # still a false positive of pass 2
+    assert late.phantom == 0 and [c.key for c in late.late] == [3]
+    elsewhere = score_changes(truth, net, d07, 2, 1, missed_before=true_changes({"bin-3": obj("bin", 12.0)}, {}, d07))
+    assert elsewhere.phantom == 1 and not elsewhere.late
+    assert score_changes(truth, net, d07, 2, 1).phantom == 1
+
+
 def test_thresholds_are_the_categories_association_distances():
     def per_category(cat: str) -> float:
         return {"door": 0.3, "table": 1.5}.get(cat, 0.7)
@@ -194,6 +211,23 @@ def test_intra_session_changes_count_in_the_pass_that_was_running_when_they_happ
     assert _missed(evaluate_changes(world, late, 2, config)) == file_changes_2 | {("moved", "table-1")}
     assert _missed(evaluate_changes(world, late, 3, config)) == file_changes_3 | {
         ("removed", "trash-bin-2"), ("added", "chair-3")}
+
+
+def test_a_move_during_pass_2_that_pass_3_reports_is_late_in_bomc_evaluate(tmp_path):
+    """small_house's table-1 moves 75.3 s into session 2. A pass 2 that ended after that and never
+    saw it leaves the move to pass 3: pass 3's report is late, not a phantom; had pass 2 ended
+    before the move, the same report is pass 3's true positive."""
+    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    old, new = np.array([-1.075, 0.225, 0.375]), np.array([1.525, 4.575, 0.375])
+    for site, ended, late in ((tmp_path / "late", 100.0, 1), (tmp_path / "early", 50.0, 0)):
+        _site_with_sessions(site, {1: 100.0, 2: ended, 3: 100.0})
+        with SiteStore(site / "site.db") as store:
+            table = Node(7, "table", old, 0.9, 1, 1)
+            store.record([Event("added", 7, "table", old, 1, 10.0)], [table])
+            store.record([Event("moved", 7, "table", new, 3, 20.0, previous=old)], [table])
+        r = evaluate_changes(world, site, 3, Config())
+        assert len(r.late) == late and r.phantom == 0
+        assert counts(r, "moved") == ((0, 1, 0) if late else (1, 0, 0))
 
 
 def test_session_1_is_scored_against_the_empty_map_and_a_skipped_session_is_spanned(tmp_path):
