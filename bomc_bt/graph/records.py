@@ -160,6 +160,10 @@ class AssociationParams:
     # "first_seen", not "added": the object was there, the map had folded it into a neighbour
     # or removed it (bomc_bt.sightings). Under an object's size; 0: off
     sighting_radius: float = 0.35
+    # [m] robust: a new object's sighting this near (planar) a node of another category counts
+    # only in a frame that also matched that node: one object under two labels in different
+    # frames is the detector confusing it, two objects are seen together. 0: off
+    relabel_radius: float = 0.3
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -195,6 +199,8 @@ class AssociationParams:
             raise ValueError("first_seen_margin must be in [0, 10] m")
         if not 0.0 <= self.sighting_radius <= 2.0:
             raise ValueError("sighting_radius must be in [0, 2] m")
+        if not 0.0 <= self.relabel_radius <= 2.0:
+            raise ValueError("relabel_radius must be in [0, 2] m")
 
     def distance(self, category: str) -> float:
         """delta_c: the association distance of ``category``."""

@@ -19,6 +19,11 @@
   the robot passes needs a longer run of misses, so a flicker is not a removal.
 * *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in
   ``confirm_detections`` frames.
+* *One object, one label.* A detector now and then names a chair "table". Such a sighting
+  lies on the chair's node, in a frame that did not see the chair; a real table with a
+  chair under it is seen together with the chair. So a new sighting within
+  ``relabel_radius`` of a node of another category counts only in a frame that matched
+  that node.
 * *No duplicates.* An unmatched observation within delta_c of a same-category node
   (which then has been matched by a closer observation) is absorbed, as in the paper.
   Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
@@ -125,7 +130,7 @@ class RobustPolicy:
                 # a part of a known object, cut off by an occluder (see NodeExtents.touched_node)
                 events.extend(self._refresh(graph, v, o, session, stamp, restart=False, extend=True))
                 continue
-            if not self.tentative.confirmed(o, stamp, self.gate(o)):
+            if self._relabelled(graph, o, matched_nodes) or not self.tentative.confirmed(o, stamp, self.gate(o)):
                 continue
             moved = self._move_candidate(graph, o)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
@@ -136,6 +141,20 @@ class RobustPolicy:
         events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
                                                     footprints))
         return events
+
+    def _relabelled(self, graph: ObjectGraph, o: Observation, matched: set[int]) -> bool:
+        """Whether ``o`` lies on a node of another category that this frame did not see (a confusion)."""
+        r = self.params.relabel_radius
+        if r <= 0.0:
+            return False
+        x, y = float(o.position[0]), float(o.position[1])
+        square = np.array([[x - r, y - r], [x + r, y - r], [x + r, y + r], [x - r, y + r]])
+        for vid in graph.index.ids_in_polygon(square).tolist():
+            v = graph.nodes.get(int(vid))
+            if v is not None and v.category != o.category and int(vid) not in matched \
+                    and math.hypot(v.position[0] - x, v.position[1] - y) <= r:
+                return True
+        return False
 
     def _near(self, graph: ObjectGraph, obs: Sequence[Observation]) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per observation: ids and squared distances of the nodes it may match (not those

@@ -1,0 +1,46 @@
+"""One object, one label: a detector that now and then names a chair "table" must not put a
+table in the map where the chair stands, and a real table with a chair under it must still
+get its own node (graph level, the default configuration)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bomc_bt.graph import AssociationParams, ObjectGraph, Observation
+
+
+def seen(category: str, x: float, y: float = 0.0, z: float = 0.45, extent: float = 0.25) -> Observation:
+    box = np.array([x - extent, y - extent, x + extent, y + extent])
+    return Observation(category, np.array([x, y, z]), 0.9, 500, extent, box=box)
+
+
+def frames(graph: ObjectGraph, sequence: list[list[Observation]], t0: float = 0.0) -> list:
+    """Associate each frame 1 s apart; every frame expects the nodes it shows."""
+    events = []
+    for i, frame in enumerate(sequence):
+        expected = [v.id for v in graph.nodes.values()
+                    if any(np.hypot(*(v.position[:2] - o.position[:2])) < 0.5 for o in frame)]
+        events += graph.associate(frame, expected, 1, t0 + i)
+    return events
+
+
+def test_a_chair_now_and_then_called_a_table_stays_one_chair():
+    graph = ObjectGraph(AssociationParams())
+    chair, confused = seen("chair", 2.0, 1.0), seen("table", 2.05, 1.02)
+    frames(graph, [[chair]] * 4 + [[confused], [chair], [confused], [chair], [confused]] * 2)
+    assert sorted(v.category for v in graph.nodes.values()) == ["chair"]
+
+
+def test_a_table_with_a_chair_under_it_gets_its_own_node():
+    graph = ObjectGraph(AssociationParams())
+    chair, table = seen("chair", 2.0, 1.0), seen("table", 2.1, 1.05, z=0.375, extent=0.6)
+    frames(graph, [[chair]] * 4 + [[chair, table]] * 3)
+    assert sorted(v.category for v in graph.nodes.values()) == ["chair", "table"]
+
+
+def test_with_the_rule_off_a_repeated_confusion_becomes_a_second_node():
+    """What the rule prevents: two confusions a few seconds apart confirm a table on the chair."""
+    graph = ObjectGraph(AssociationParams(relabel_radius=0.0))
+    chair, confused = seen("chair", 2.0, 1.0), seen("table", 2.05, 1.02)
+    frames(graph, [[chair]] * 4 + [[confused], [chair], [confused]])
+    assert sorted(v.category for v in graph.nodes.values()) == ["chair", "table"]
