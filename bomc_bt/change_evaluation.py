@@ -39,7 +39,8 @@ robot failed to see) is.
 pass missed (a chair taken away during pass N-1 after the robot had looked there, seen
 gone in pass N), has a real change behind it: it is wrong for this pass (a false
 positive) but no phantom, and is counted apart (``late``). The miss stays counted in the
-previous pass.
+previous pass. The first pass has no previous one: what it missed was no change in the
+building, so nothing reported after it is late on that account.
 
 Session 1 has no previous pass: it is scored against the empty map, so every object
 present when it ended is an addition and ``added`` reads like the object protocol.

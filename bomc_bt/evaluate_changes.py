@@ -44,7 +44,10 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
         history = store.events(until=session)
     threshold = ObjectGraph(config.association).threshold
     previous = max((n for n in recorded if n < session), default=None)
-    missed_before = [] if previous is None else _score(world, recorded, history, previous, threshold, []).missed
+    before = None if previous is None else _score(world, recorded, history, previous, threshold, [])
+    # the first pass is scored against the empty map: an object it missed was no change in the
+    # building, so a later pass reporting it "added" is a phantom, not a late change
+    missed_before = [] if before is None or before.previous is None else before.missed
     return _score(world, recorded, history, session, threshold, missed_before)
 
 

@@ -230,6 +230,17 @@ def test_a_move_during_pass_2_that_pass_3_reports_is_late_in_bomc_evaluate(tmp_p
         assert counts(r, "moved") == ((0, 1, 0) if late else (1, 0, 0))
 
 
+def test_an_object_the_first_pass_missed_reported_added_later_is_a_phantom_not_late(tmp_path):
+    """Pass 1 is scored against the empty map: the table it missed never changed in the building."""
+    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    _site_with_sessions(tmp_path, {1: 100.0, 2: 50.0})
+    with SiteStore(tmp_path / "site.db") as store:
+        at = np.array([-1.075, 0.225, 0.375])
+        store.record([Event("added", 3, "table", at, 2, 20.0)], [Node(3, "table", at, 0.9, 2, 2)])
+    r = evaluate_changes(world, tmp_path, 2, Config())
+    assert r.phantom == 1 and not r.late
+
+
 def test_session_1_is_scored_against_the_empty_map_and_a_skipped_session_is_spanned(tmp_path):
     world = load_world(TESTS / "worlds" / "small_house.yaml")
     _site_with_sessions(tmp_path, {1: 100.0, 3: 100.0})
