@@ -45,6 +45,11 @@ building, so nothing reported after it is late on that account.
 Session 1 has no previous pass: it is scored against the empty map, so every object
 present when it ended is an addition and ``added`` reads like the object protocol.
 
+**Retracted**: a node the map drops after it was matched in only a few frames in all
+(:mod:`bomc_bt.net_changes`) reports no object going; like a first-seen node it is counted
+apart (``retracted``) and neither a true nor a false positive. A true removal of such a
+node stays a miss.
+
 **First seen**: a node added where no earlier pass had looked (:mod:`bomc_bt.first_seen`)
 is new to the map, not a change the pass predicts: it is neither a true positive nor a
 false one, only counted (``first_seen``). A true addition at such a place stays a miss:
@@ -62,7 +67,7 @@ import numpy as np
 from bomc_bt.evaluation import ClassScores, match_pairs, scores
 from bomc_bt.graph import EVENT_KINDS, Event
 from bomc_bt.net_changes import first_seen_count as count_first_seen
-from bomc_bt.net_changes import net_changes, only_changes
+from bomc_bt.net_changes import net_changes, only_changes, retracted_count
 
 CHANGE_KINDS = ("removed", "added", "moved")
 Threshold = Callable[[str], float]
@@ -109,6 +114,7 @@ class ChangeResult:
     phantoms: list[ObjectChange] = field(default_factory=list)
     late: list[ObjectChange] = field(default_factory=list)  # false positives reporting the previous pass's misses
     first_seen: int = 0  # nodes new to the map where no earlier pass looked: reported apart, not scored
+    retracted: int = 0  # nodes dropped as seen too seldom to trust: reported apart, not scored
 
 
 def _xyz(p) -> np.ndarray:
@@ -148,6 +154,11 @@ def reported_changes(events: Sequence[Event], since: int | None, threshold: Thre
 def first_seen_count(events: Sequence[Event], since: int | None, threshold: Threshold) -> int:
     """How many nodes the passes after ``since`` found new to the map (not scored as changes)."""
     return count_first_seen(net_changes(events, since, threshold))
+
+
+def retracted_nodes(events: Sequence[Event], since: int | None, threshold: Threshold) -> int:
+    """How many nodes the passes after ``since`` withdrew as seen too seldom (not scored as changes)."""
+    return retracted_count(net_changes(events, since, threshold))
 
 
 def raw_event_counts(events: Sequence[Event]) -> dict[str, int]:

@@ -22,6 +22,7 @@ from bomc_bt.change_evaluation import (
     first_seen_count,
     raw_event_counts,
     reported_changes,
+    retracted_nodes,
     score_changes,
     true_changes,
 )
@@ -67,6 +68,7 @@ def _score(world: World, recorded: dict, history: list, session: int, threshold,
     events = [e for e in history if e.session == session]
     result = score_changes(truth, net, threshold, session, previous, raw_event_counts(events), missed_before)
     result.first_seen = first_seen_count(history, previous, threshold)
+    result.retracted = retracted_nodes(history, previous, threshold)
     return result
 
 
@@ -88,6 +90,7 @@ def changes_to_json(result: ChangeResult) -> dict[str, Any]:
     out["late"] = len(result.late)
     out["raw_events"] = dict(result.raw_events)
     out["first_seen"] = result.first_seen
+    out["retracted"] = result.retracted
     return out
 
 
@@ -110,6 +113,7 @@ def format_changes(result: ChangeResult) -> str:
     raw = ", ".join(f"{k} {v}" for k, v in result.raw_events.items())
     lines.append(f"phantom {result.phantom}; late {len(result.late)} (the previous pass's misses); "
                  f"first seen {result.first_seen} (new to the map, not scored); "
+                 f"retracted {result.retracted} (seen too seldom to trust, not scored); "
                  f"raw events {raw or 'none'}")
     label = {id(c): "phantom:" for c in result.phantoms} | {id(c): "late:   " for c in result.late}
     lines += [f"  missed:  {describe(c)}" for c in result.missed]

@@ -13,7 +13,11 @@ compares each node that had an event in it:
 * absent -> present where the event that added the node in the period was marked first
   seen (no earlier pass had seen that place, :mod:`bomc_bt.first_seen`): ``first_seen``,
   new to the map and not a change. It is listed apart and is no change an evaluation
-  scores. From the empty map (``since=None``) every new node is ``added``.
+  scores. From the empty map (``since=None``) every new node is ``added``;
+* present -> absent where the removal was marked retracted (the node had been matched in
+  only a few frames in all, ``association.retract_observations``): ``retracted``, the map
+  withdrawing sightings it no longer trusts, not an object that went. Listed apart like
+  first-seen nodes, and no change an evaluation scores.
 
 Each :class:`NetChange` carries its evidence: for a removal the frames that counted the
 object missing before it was taken off and when it was last seen; for a move how far it
@@ -35,14 +39,15 @@ from bomc_bt.graph import Event
 
 NET_KINDS = ("removed", "added", "moved")  # the changes
 FIRST_SEEN = "first_seen"  # a node new to the map where no earlier pass looked: not a change
-REPORTED_KINDS = (*NET_KINDS, FIRST_SEEN)  # what net_changes returns, in its order
+RETRACTED = "retracted"  # a node seen too seldom to trust, dropped: not a change
+REPORTED_KINDS = (*NET_KINDS, FIRST_SEEN, RETRACTED)  # what net_changes returns, in its order
 
 
 @dataclass
 class NetChange:
     """One node's change over a period. ``old`` is None for an addition, ``new`` for a removal."""
 
-    kind: str  # "removed" | "added" | "moved" | "first_seen"
+    kind: str  # "removed" | "added" | "moved" | "first_seen" | "retracted"
     node_id: int
     category: str
     old: np.ndarray | None  # where it stood when the period began (a removal: where it was last)
@@ -88,6 +93,8 @@ class NetChange:
             text = f"first seen {what} at {at(self.new)} (no earlier pass saw this place)"
         elif self.kind == "moved":
             text = f"moved {what} {at(self.old)} -> {at(self.new)}, {self.distance:.2f} m"
+        elif self.kind == RETRACTED:
+            text = f"retracted {what} at {at(self.old)} (seen in too few frames to trust; no object seen since)"
         else:
             seen = "not seen this pass" if self.last_seen is None else f"last seen t={self.last_seen:.1f} s"
             frames = "" if self.missing_frames is None else f"missing in {self.missing_frames} frames, "
@@ -135,7 +142,8 @@ def net_changes(events: Sequence[Event], since: int | None,
                 out.append(NetChange("moved", nid, a.category, old, pos, distance, None, None, a.session,
                                      a.stamp, counts[nid]))
         elif was and a.merged_into is None:
-            out.append(NetChange("removed", nid, a.category, pos, None, 0.0, a.misses, a.last_seen, a.session,
+            kind = RETRACTED if a.retracted else "removed"
+            out.append(NetChange(kind, nid, a.category, pos, None, 0.0, a.misses, a.last_seen, a.session,
                                  a.stamp, counts[nid], bool((a.detail or {}).get("merged", False))))
         elif now and not was:
             new_to_map = since is not None and nid in first_added and is_first_seen(first_added[nid])
@@ -155,6 +163,11 @@ def first_seen_count(changes: Sequence[NetChange]) -> int:
     return sum(c.kind == FIRST_SEEN for c in changes)
 
 
+def retracted_count(changes: Sequence[NetChange]) -> int:
+    """How many of ``changes`` are nodes the map withdrew (``retracted``): no object went."""
+    return sum(c.kind == RETRACTED for c in changes)
+
+
 def only_changes(changes: Sequence[NetChange]) -> list[NetChange]:
-    """The changes among ``changes``: first-seen nodes left out (new to the map, not changed)."""
+    """The changes among ``changes``: first-seen and retracted nodes left out (not changes)."""
     return [c for c in changes if c.kind in NET_KINDS]

@@ -12,7 +12,16 @@ from collections import Counter
 from typing import Any
 
 from bomc_bt.budget_pass import pass_regions
-from bomc_bt.net_changes import FIRST_SEEN, NET_KINDS, NetChange, first_seen_count, net_changes, summarize
+from bomc_bt.net_changes import (
+    FIRST_SEEN,
+    NET_KINDS,
+    RETRACTED,
+    NetChange,
+    first_seen_count,
+    net_changes,
+    retracted_count,
+    summarize,
+)
 from bomc_bt.pass_resume import coverage_masks
 from bomc_bt.render import render_semantic_map, save_png
 from bomc_bt.site import write_json
@@ -32,10 +41,10 @@ def pass_changes(ctx) -> tuple[int | None, list[NetChange]]:
 
 def changes_summary(ctx) -> dict[str, Any]:
     """The report's ``changes`` key: counts per kind and one record per changed node; the
-    first-seen nodes (new to the map, not changes) are counted apart and listed with them."""
+    first-seen and retracted nodes (not changes) are counted apart and listed with them."""
     previous, changes = pass_changes(ctx)
     return {"since_session": previous, "counts": summarize(changes), "nodes": [c.to_json() for c in changes],
-            "first_seen": first_seen_count(changes)}
+            "first_seen": first_seen_count(changes), "retracted": retracted_count(changes)}
 
 
 def session_summary(ctx) -> dict[str, Any]:
@@ -148,6 +157,10 @@ def _changes_markdown(changes: dict[str, Any] | None) -> list[str]:
         lines += ["", f"## First seen: {len(first)} (new to the map where no earlier pass had looked; "
                   "not changes)", ""]
         lines += [f"- {c.describe()}" for c in first]
+    withdrawn = [c for c in records if c.kind == RETRACTED]
+    if withdrawn:
+        lines += ["", f"## Retracted: {len(withdrawn)} (seen in too few frames to trust; dropped, not changes)", ""]
+        lines += [f"- {c.describe()}" for c in withdrawn]
     return lines
 
 def _budget_lines(b: dict[str, Any]) -> list[str]:

@@ -208,7 +208,7 @@ class ObjectGraph:
         return self.report("added", node, session, stamp)
 
     def remove(self, v: Node, session: int, stamp: float, merged: bool = False,
-               merged_into: int | None = None) -> Event:
+               merged_into: int | None = None, retracted: bool = False) -> Event:
         """Take ``v`` off the graph. Unless it was ``merged`` into another node (the node
         ``merged_into``, when known), it may come back in this session as a move
         (:meth:`restore`). The event carries the evidence: the misses that confirmed the
@@ -225,7 +225,8 @@ class ObjectGraph:
         self._changed[v.id] = v
         event = self.report("removed", v, session, stamp)
         # a removal is decided on at least the frame that did not see it (Algorithm 2 counts no misses)
-        event.removal_evidence(0 if merged else max(int(v.misses), 1), merged, v.last_seen, merged_into)
+        event.removal_evidence(0 if merged else max(int(v.misses), 1), merged, v.last_seen, merged_into,
+                               int(v.observations), retracted and not merged)
         return event
 
     def restore(self, v: Node, position: np.ndarray) -> None:

@@ -102,10 +102,20 @@ class Event:
         value = (self.detail or {}).get("merged_into")
         return None if value is None else int(value)
 
+    @property
+    def retracted(self) -> bool:
+        """A removal of a node seen too seldom to have been trusted (see ``retract_observations``)."""
+        return bool((self.detail or {}).get("retracted", False))
+
     def removal_evidence(self, misses: int, merged: bool, last_seen: float | None,
-                         merged_into: int | None = None) -> None:
+                         merged_into: int | None = None, observations: int | None = None,
+                         retracted: bool = False) -> None:
         """Record why a removal was decided (the history keeps it as ``detail``)."""
         self.detail = {"misses": int(misses), "merged": bool(merged)}
+        if observations is not None:
+            self.detail["observations"] = int(observations)
+        if retracted:
+            self.detail["retracted"] = True
         if last_seen is not None:
             self.detail["seen"] = float(last_seen)
         if merged_into is not None:
@@ -164,6 +174,10 @@ class AssociationParams:
     # only in a frame that also matched that node: one object under two labels in different
     # frames is the detector confusing it, two objects are seen together. 0: off
     relabel_radius: float = 0.3
+    # [count] robust: a node taken off after being matched in at most this many frames in all
+    # is retracted, not removed: a few sightings the map no longer trusts (a look-alike, a
+    # confusion), reported apart from the changes (bomc_bt.net_changes). 0: off
+    retract_observations: int = 5
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -199,6 +213,8 @@ class AssociationParams:
             raise ValueError("first_seen_margin must be in [0, 10] m")
         if not 0.0 <= self.sighting_radius <= 2.0:
             raise ValueError("sighting_radius must be in [0, 2] m")
+        if not 0 <= self.retract_observations <= 1000:
+            raise ValueError("retract_observations must be 0 to 1000")
         if not 0.0 <= self.relabel_radius <= 2.0:
             raise ValueError("relabel_radius must be in [0, 2] m")
 

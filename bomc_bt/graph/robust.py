@@ -39,6 +39,10 @@
   new in this session stands within ``move_radius``, that node is folded into the old
   one, which moves there (the robot saw the chair's new place before its old one).
   A wrong guess costs little: the object left behind gets a new id when it is seen.
+* *Retract, not remove, what was barely seen.* A node matched in at most
+  ``retract_observations`` frames in all (two sightings of a look-alike confirmed it) that
+  misses take off is marked retracted: the map drops it either way, but the change report
+  does not tell the operator an object went (:mod:`bomc_bt.net_changes`).
 * *Updated events are sparse.* A refresh emits ``updated`` only the first time a node is
   matched in a session or when its position drifted more than ``report_distance`` since
   the last report, so the history does not grow by one row per node per frame; the
@@ -240,7 +244,7 @@ class RobustPolicy:
             arrival = self._arrival(graph, v, session)
             if arrival is not None:
                 return self._moved_to(graph, v, arrival, session, stamp)
-            return [graph.remove(v, session, stamp)]
+            return [graph.remove(v, session, stamp, retracted=v.observations <= self.params.retract_observations)]
         return []
 
     def _arrival(self, graph: ObjectGraph, v: Node, session: int) -> Node | None:

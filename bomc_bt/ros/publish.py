@@ -135,7 +135,7 @@ def summary_json(session: int, changes: dict[str, Any]) -> str:
     session report's; ``first_seen``: nodes new to the map, listed among the records as such)."""
     return json.dumps({"kind": "summary", "session": int(session), "since_session": changes["since_session"],
                        "counts": changes["counts"], "changes": changes["nodes"],
-                       "first_seen": changes.get("first_seen", 0)})
+                       "first_seen": changes.get("first_seen", 0), "retracted": changes.get("retracted", 0)})
 
 
 class MissionPublisher:

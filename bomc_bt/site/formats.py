@@ -69,8 +69,10 @@ def format_changes(result: Sequence[SessionChanges], fmt: str) -> str:
             lines.append(f"session {s.session} (not run yet): {len(s.edits)} operator edit(s) waiting for it")
         else:
             first = sum(c.kind == "first_seen" for c in s.changes)  # new to the map: listed, not changes
-            lines.append(f"session {s.session} (since {since}): {len(s.changes) - first} change(s)"
-                         + (f", {first} first seen" if first else ""))
+            withdrawn = sum(c.kind == "retracted" for c in s.changes)  # seen too seldom: listed, not changes
+            lines.append(f"session {s.session} (since {since}): {len(s.changes) - first - withdrawn} change(s)"
+                         + (f", {first} first seen" if first else "")
+                         + (f", {withdrawn} retracted" if withdrawn else ""))
         lines.extend("  " + _describe(c.to_json()) for c in s.changes)
         lines.extend(f"  operator {e.kind} node {e.node_id} ({e.category}){_edit_words(e.detail)}" for e in s.edits)
     return "\n".join(lines or ["no recorded session in that range"]) + "\n"
@@ -94,7 +96,9 @@ def _describe(c: dict[str, Any]) -> str:
         return f"({p[0]:.2f}, {p[1]:.2f})"
 
     words = f"{c['kind']} node {c['id']} ({c['category']})"
-    if c["kind"] == "removed":
+    if c["kind"] == "retracted":
+        words += f" at {at(c['old'])}: seen in too few frames to trust"
+    elif c["kind"] == "removed":
         words += f" at {at(c['old'])}: " + ("merged into a neighbour" if c["merged"] else
                                            f"missing in {_or_unknown(c['missing_frames'])} frame(s)")
     elif c["kind"] in ("added", "first_seen"):  # first seen: new to the map where no earlier pass looked

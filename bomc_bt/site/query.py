@@ -66,7 +66,7 @@ class NodeChange:
     """A node's net change over one pass, with the evidence for it."""
 
     session: int
-    kind: str  # "added" | "removed" | "moved" | "first_seen" (new to the map where no earlier pass looked)
+    kind: str  # "added" | "removed" | "moved" | "first_seen" (new where no pass looked) | "retracted"
     node_id: int
     category: str
     old: tuple[float, float, float] | None  # where it was (None: added)

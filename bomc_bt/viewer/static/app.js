@@ -175,7 +175,7 @@ async function loadDiff() {
       (n.from ? ` ${fmt(n.distance, 2)} m` : "") + "</li>").join("");
     return `<h3>${kind} (${items.length})</h3><ul id="diff-${kind}">${li || '<li class="none">none</li>'}</ul>`;
   };
-  box.innerHTML = `<div id="diff-summary">session ${a} → session ${b}</div>` + ["added", "removed", "moved", "first_seen"].map(part).join("");
+  box.innerHTML = `<div id="diff-summary">session ${a} → session ${b}</div>` + ["added", "removed", "moved", "first_seen", "retracted"].map(part).join("");
   box.dataset.ready = `${a}-${b}`;
   draw();
 }
