@@ -1,4 +1,4 @@
-"""Retract, not remove: a node the map held on a handful of sightings (a look-alike, a label
+"""Retract, not remove: a node the map held only on the sightings that confirmed it (a look-alike, a label
 confusion) that later passes find nothing at is dropped without telling the operator that an
 object went; an object seen often and then gone is still a removal."""
 
@@ -42,8 +42,9 @@ def two_passes(tmp_path, sightings_of_the_ghost: int):
         return store.events(until=2)
 
 
-def test_a_node_seen_in_a_few_frames_is_retracted_and_a_well_seen_one_removed(tmp_path, capsys):
-    history = two_passes(tmp_path, sightings_of_the_ghost=3)
+def test_a_node_never_seen_again_after_its_confirmation_is_retracted_and_a_well_seen_one_removed(
+        tmp_path, capsys):
+    history = two_passes(tmp_path, sightings_of_the_ghost=2)
     changes = net_changes(history, 1, d07)
     assert sorted((c.kind, round(float(c.old[0]))) for c in changes) == [("removed", 0), (RETRACTED, 3)]
     assert [c.kind for c in only_changes(changes)] == ["removed"]
@@ -58,7 +59,7 @@ def test_a_node_seen_in_a_few_frames_is_retracted_and_a_well_seen_one_removed(tm
 
 
 def test_with_retraction_off_the_ghost_is_a_removal(tmp_path):
-    history = two_passes(tmp_path, sightings_of_the_ghost=3)
+    history = two_passes(tmp_path, sightings_of_the_ghost=2)
     # the same history read as if no removal had been marked: both are removals
     for e in history:
         if e.detail:
@@ -66,6 +67,6 @@ def test_with_retraction_off_the_ghost_is_a_removal(tmp_path):
     assert sorted(c.kind for c in net_changes(history, 1, d07)) == ["removed", "removed"]
 
 
-def test_observations_above_the_threshold_make_a_removal(tmp_path):
-    history = two_passes(tmp_path, sightings_of_the_ghost=9)
+def test_a_node_matched_again_after_its_confirmation_makes_a_removal(tmp_path):
+    history = two_passes(tmp_path, sightings_of_the_ghost=3)
     assert sorted(c.kind for c in net_changes(history, 1, d07)) == ["removed", "removed"]

@@ -175,9 +175,10 @@ class AssociationParams:
     # frames is the detector confusing it, two objects are seen together. 0: off
     relabel_radius: float = 0.3
     # [count] robust: a node taken off after being matched in at most this many frames in all
-    # is retracted, not removed: a few sightings the map no longer trusts (a look-alike, a
-    # confusion), reported apart from the changes (bomc_bt.net_changes). 0: off
-    retract_observations: int = 5
+    # is retracted, not removed: sightings the map no longer trusts (a look-alike, a confusion),
+    # reported apart from the changes (bomc_bt.net_changes). 1: never matched again after the
+    # sightings that confirmed it; 0: off
+    retract_observations: int = 1
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:

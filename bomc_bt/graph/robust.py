@@ -40,9 +40,10 @@
   one, which moves there (the robot saw the chair's new place before its old one).
   A wrong guess costs little: the object left behind gets a new id when it is seen.
 * *Retract, not remove, what was barely seen.* A node matched in at most
-  ``retract_observations`` frames in all (two sightings of a look-alike confirmed it) that
-  misses take off is marked retracted: the map drops it either way, but the change report
-  does not tell the operator an object went (:mod:`bomc_bt.net_changes`).
+  ``retract_observations`` frames in all (by default: never matched again after the two
+  sightings of a look-alike that confirmed it) that misses take off is marked retracted:
+  the map drops it either way, but the change report does not tell the operator an object
+  went (:mod:`bomc_bt.net_changes`).
 * *Updated events are sparse.* A refresh emits ``updated`` only the first time a node is
   matched in a session or when its position drifted more than ``report_distance`` since
   the last report, so the history does not grow by one row per node per frame; the
