@@ -21,6 +21,7 @@ import numpy as np
 
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.world import wall_mask
+from bomc_bt.world.walls import drivable_from
 
 
 @dataclass
@@ -95,11 +96,8 @@ class Placer:
         if taken is None and self._reach is not None:
             return self._reach
         solid = ~self.reachable | ((self.taken if taken is None else taken) > 0)
-        dist = cv2.distanceTransform((~solid).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-        ok = dist * self.grid.resolution >= self.rules.robot_radius + self.grid.resolution
-        _, labels = cv2.connectedComponents(ok.astype(np.uint8), connectivity=4)
         r, c = self.grid.world_to_cell(*self.start)
-        reach = labels == labels[r, c] if ok[r, c] else np.zeros_like(ok)
+        reach = drivable_from(solid, self.grid.resolution, self.rules.robot_radius, (int(r), int(c)))
         if taken is None:
             self._reach = reach
         return reach

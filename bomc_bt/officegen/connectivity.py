@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.world.walls import wall_mask
+from bomc_bt.world.walls import drivable_from, wall_mask
 
 
 def rasterise(shape: tuple[int, int], origin: Sequence[float], res: float, polygons: Sequence[np.ndarray],
@@ -46,12 +46,9 @@ def passable(grid: OccupancyGrid, footprints: Sequence[np.ndarray], radius: floa
 def reachable(grid: OccupancyGrid, footprints: Sequence[np.ndarray], radius: float,
               start: tuple[float, float]) -> np.ndarray:
     """Bool mask of the passable cells a robot at ``start`` can drive to (empty if start is blocked)."""
-    ok = passable(grid, footprints, radius)
-    _, labels = cv2.connectedComponents(ok.astype(np.uint8), connectivity=4)
+    solid = wall_mask(grid) | rasterise(grid.data.shape, grid.origin, grid.resolution, footprints).astype(bool)
     r, c = grid.world_to_cell(start[0], start[1])
-    if not grid.in_bounds(r, c) or not ok[r, c]:
-        return np.zeros_like(ok)
-    return labels == labels[r, c]
+    return drivable_from(solid, grid.resolution, radius, (int(r), int(c)))
 
 
 def distance_to(mask: np.ndarray, res: float) -> np.ndarray:

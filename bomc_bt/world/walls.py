@@ -1,4 +1,4 @@
-"""Which map cells are solid, and whether a box stands inside a wall.
+"""Which map cells are solid, whether a box stands inside a wall, and where a robot can drive.
 
 Used by the loader to reject objects typed into walls and by the simulator, which
 treats these cells as solid. "Inside a wall" is defined robustly for real SLAM maps: an
@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 
 from bomc_bt.grid import OccupancyGrid
@@ -33,6 +34,17 @@ def wall_mask(grid: OccupancyGrid) -> np.ndarray:
         cached[:, [0, -1]] = True
         grid._cache["world_walls"] = cached
     return cached
+
+
+def drivable_from(solid: np.ndarray, resolution: float, radius: float, start: tuple[int, int]) -> np.ndarray:
+    """Cells a robot of ``radius`` (plus one cell) starting at cell ``start`` (row, col) can drive
+    to among ``solid`` cells (4-connected; empty when the start itself is too tight)."""
+    dist = cv2.distanceTransform((~solid).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    ok = dist * resolution >= radius + resolution
+    _, labels = cv2.connectedComponents(ok.astype(np.uint8), connectivity=4)
+    r, c = start
+    inside = 0 <= r < ok.shape[0] and 0 <= c < ok.shape[1]
+    return labels == labels[r, c] if inside and ok[r, c] else np.zeros_like(ok)
 
 
 def embedded_in_wall(grid: OccupancyGrid, walls: np.ndarray, position, size, yaw: float) -> bool:
