@@ -11,6 +11,7 @@ CONTRACTS.md section 4 with a ``changes`` key.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,7 @@ import numpy as np
 from bomc_bt.change_evaluation import (
     CHANGE_KINDS,
     ChangeResult,
+    ObjectChange,
     first_seen_count,
     raw_event_counts,
     reported_changes,
@@ -29,8 +31,9 @@ from bomc_bt.change_evaluation import (
 from bomc_bt.config import Config
 from bomc_bt.errors import BomcError
 from bomc_bt.evaluation import ClassScores
-from bomc_bt.graph import ObjectGraph
+from bomc_bt.graph import Event, ObjectGraph
 from bomc_bt.site_reader import open_graph
+from bomc_bt.store import SessionRecord
 from bomc_bt.world import World, load_world
 
 
@@ -52,7 +55,8 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
     return _score(world, recorded, history, session, threshold, missed_before)
 
 
-def _score(world: World, recorded: dict, history: list, session: int, threshold, missed_before) -> ChangeResult:
+def _score(world: World, recorded: dict[int, SessionRecord], history: list[Event], session: int,
+           threshold: Callable[[str], float], missed_before: list[ObjectChange]) -> ChangeResult:
     """Pass ``session`` against the previous recorded one (``history``: events up to at least its end)."""
     previous = max((n for n in recorded if n < session), default=None)
     history = [e for e in history if e.session <= session]
