@@ -1,11 +1,19 @@
-"""Shared fixtures: where the shared worlds and maps live; headless Chromium."""
+"""Shared fixtures: where the shared worlds and maps live; headless Chromium. Property tests
+run the same examples every time (CI must be deterministic); set HYPOTHESIS_PROFILE=explore
+to let hypothesis search afresh."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 from shared_data import SHARED, require_shared
+
+settings.register_profile("deterministic", derandomize=True, database=None)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "deterministic"))
 
 
 @pytest.fixture(scope="module")

@@ -26,6 +26,7 @@ import numpy as np
 from bomc_bt.graph.footprints import overlapping
 from bomc_bt.graph.geometry import dist2, points_in_polygon
 
+_EDGE = 1e-9  # m: slack of a polygon query's bounding box (points on the edge are inside)
 _EMPTY_IDS = np.zeros(0, np.int64)
 
 
@@ -109,7 +110,9 @@ class SpatialIndex:
 
     def ids_in_polygon(self, polygon: np.ndarray) -> np.ndarray:
         """Ids (unordered) of nodes whose xy lies inside ``polygon`` (K, 2)."""
-        slots = self._slots_in_box(polygon.min(axis=0), polygon.max(axis=0))
+        # the polygon's own box, padded: a point on its edge counts as inside (points_in_polygon)
+        # and rounding must not put it just outside the box first (hypothesis found x = -1e-254)
+        slots = self._slots_in_box(polygon.min(axis=0) - _EDGE, polygon.max(axis=0) + _EDGE)
         if len(slots) == 0:
             return _EMPTY_IDS
         return self._slot_id[slots[points_in_polygon(self._pos[slots][:, :2], polygon)]]
