@@ -55,6 +55,40 @@ def test_an_object_seen_end_by_end_in_cut_off_views_stays_one_node():
     assert len(graph.nodes) == 1
 
 
+def test_a_cabinet_seen_whole_does_not_swallow_the_cabinet_beside_it_seen_cut_off():
+    """Depot floor: a cabinet seen whole many times (a 1 m box, seen at an angle); a second one
+    arrives 0.5 m beyond its end and is only ever seen cut off (past a shelf). Its views lie within
+    ``footprint_touch`` of the first cabinet's footprint, but the first cabinet's size is
+    known: they are a second cabinet, not its hidden end (they were one node, midway)."""
+    graph = ObjectGraph(AssociationParams())
+    t = 0.0
+    for _ in range(4):
+        graph.associate([view("cabinet", 0.0, 1.0)], list(graph.nodes), 1, t)
+        t += 1.0
+    for _ in range(4):
+        graph.associate([view("cabinet", 1.5, 1.95, truncated=True)], [], 2, t)
+        t += 1.0
+    cabinets = sorted(graph.nodes.values(), key=lambda v: v.position[0])
+    assert len(cabinets) == 2, [np.round(v.position, 2).tolist() for v in cabinets]
+    assert abs(cabinets[0].position[0] - 0.5) < 0.05 and cabinets[1].position[0] > 1.5
+    assert cabinets[0].footprint[2] < 1.1  # the first keeps its own length
+
+
+def test_a_table_seen_only_cut_off_still_grows_to_its_hidden_end():
+    """The other side of that rule: a table never seen whole (chairs in front) whose far end
+    comes into view as a sliver is one table, its footprint grown to the sliver."""
+    graph = ObjectGraph(AssociationParams())
+    t = 0.0
+    for _ in range(3):
+        graph.associate([view("table", 0.0, 1.2, truncated=True)], list(graph.nodes), 1, t)
+        t += 1.0
+    for _ in range(3):
+        graph.associate([view("table", 1.5, 1.8, truncated=True)], [], 1, t)
+        t += 1.0
+    assert len(graph.nodes) == 1
+    assert next(iter(graph.nodes.values())).footprint[2] >= 1.8
+
+
 def test_a_whole_view_makes_the_footprint_tell_neighbours_apart():
     """Once a whole view of the chair is in its footprint, a view beside it is a second chair."""
     graph = ObjectGraph(AssociationParams())

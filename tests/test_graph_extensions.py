@@ -136,20 +136,33 @@ def test_a_truncated_view_beside_a_big_known_object_is_not_a_new_one():
         o.truncated = cut
         return o
 
-    def graph_with(category: str, half_x: float, half_y: float) -> ObjectGraph:
+    def graph_with(category: str, half_x: float, half_y: float, cut: bool = False) -> ObjectGraph:
         g = ObjectGraph(AssociationParams(confirm_detections=1))
-        g.associate([boxed(category, -half_x, -half_y, half_x, half_y)], [], 1, 0.0)
+        first = boxed(category, -half_x, -half_y, half_x, half_y)
+        first.truncated = cut
+        g.associate([first], [], 1, 0.0)
         return g
 
-    # a table's far end, 0.3 m past what a chair hides, seen past that chair: the same table,
-    # which grows to its whole length (the next sliver further out touches it again)
-    g = graph_with("table", 0.6, 0.4)
+    # a table seen only past a chair that hides its far end; that end, 0.3 m past what the
+    # chair hid, seen past the chair: the same table, which grows to its whole length (the next
+    # sliver further out touches it again)
+    g = graph_with("table", 0.6, 0.4, cut=True)
     events = g.associate([sliver("table", -1.05, -0.9, cut=True)], [], 1, 1.0)
     assert len(g.nodes) == 1 and all(e.kind == "updated" and e.node_id == 0 for e in events)
     assert np.allclose(g.nodes[0].footprint, [-1.05, -0.4, 0.6, 0.4])
     assert np.isclose(g.nodes[0].position[0], -0.225)  # a big object sits in the middle of its floor
     g.associate([sliver("table", -1.6, -1.5, cut=True)], [], 1, 2.0)
     assert len(g.nodes) == 1 and np.isclose(g.nodes[0].footprint[0], -1.6)
+    # a table seen whole is as long as that view: a cut-off view beyond its end is a neighbour's
+    g = graph_with("table", 0.6, 0.4)
+    g.associate([sliver("table", -1.05, -0.9, cut=True)], [], 1, 1.0)
+    assert len(g.nodes) == 2 and np.allclose(g.nodes[0].footprint, [-0.6, -0.4, 0.6, 0.4])
+    # the same table as the store gives it to the next pass (no view of it yet): it grows
+    stored = next(iter(g.nodes.values()))
+    g = ObjectGraph(AssociationParams(confirm_detections=1), [Node(0, "table", stored.position, 0.9, 1, 1,
+                                                                   footprint=np.array([-0.6, -0.4, 0.6, 0.4]))])
+    g.associate([sliver("table", -1.05, -0.9, cut=True)], [], 2, 1.0)
+    assert len(g.nodes) == 1 and np.isclose(g.nodes[0].footprint[0], -1.05)
     # the same view, whole (nothing nearer borders it): a second table
     g = graph_with("table", 0.6, 0.4)
     assert [e.kind for e in g.associate([sliver("table", -1.05, -0.9, cut=False)], [], 1, 1.0)] == ["added"]

@@ -43,6 +43,7 @@ class NodeExtents:
         self.params = params
         self.boxes = params.footprint_overlap > 0.0  # footprints take part in association
         self._longest_view: dict[int, float] = {}  # node id: longest side of one view's box
+        self._whole_view: dict[int, float] = {}  # node id: longest side of a whole view's box, this pass
         # nodes whose footprint holds only views cut off by an occluder or the image border
         # (a footprint loaded from the store counts as whole: a pass saw most objects whole)
         self._partial: set[int] = set()
@@ -94,6 +95,8 @@ class NodeExtents:
         whole |= drop.footprint is not None and drop.id not in self._partial
         grown = union(keep.footprint, drop.footprint)
         longest = max(self._longest(keep), self._longest(drop))
+        if drop.id in self._whole_view:
+            self._whole_view[keep.id] = max(self._whole_view.get(keep.id, 0.0), self._whole_view.pop(drop.id))
         if keep.footprint is None or grown is None or _side(grown) <= longest + BIG_MARGIN:
             graph.set_footprint(keep, grown)
             self._mark(keep.id, whole)
@@ -106,22 +109,30 @@ class NodeExtents:
         """``v`` moved to where ``arrival`` stands: it takes the arrival's footprint."""
         graph.set_footprint(v, arrival.footprint)
         self._longest_view.pop(v.id, None)
+        self._whole_view.pop(v.id, None)
+        if arrival.id in self._whole_view:
+            self._whole_view[v.id] = self._whole_view[arrival.id]
         self._mark(v.id, arrival.id not in self._partial)
 
     def restart(self, graph: ObjectGraph, v: Node, o: Observation) -> None:
         """``v`` moved to where ``o`` saw it: its footprint starts over from the view."""
         graph.set_footprint(v, o.box)
         self._longest_view.pop(v.id, None)
+        self._whole_view.pop(v.id, None)
+        if o.box is not None and not o.truncated:
+            self._whole_view[v.id] = _side(o.box)
         self._mark(v.id, not o.truncated)
 
     def to_json(self) -> dict:
         """What a resumed pass needs: longest views and partial footprints (JSON-able)."""
-        return {"longest": {str(i): x for i, x in self._longest_view.items()}, "partial": sorted(self._partial)}
+        return {"longest": {str(i): x for i, x in self._longest_view.items()}, "partial": sorted(self._partial),
+                "whole": {str(i): x for i, x in self._whole_view.items()}}
 
     def restore(self, data: dict) -> None:
         """Put back what :meth:`to_json` saved."""
         self._longest_view = {int(k): float(x) for k, x in data.get("longest", {}).items()}
         self._partial = {int(i) for i in data.get("partial", [])}
+        self._whole_view = {int(k): float(x) for k, x in data.get("whole", {}).items()}
 
     def _mark(self, node_id: int, whole: bool) -> None:
         if whole:
@@ -158,6 +169,8 @@ class NodeExtents:
             longest = max(self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0),
                           _side(o.box))
             self._longest_view[v.id] = longest
+            if not o.truncated:
+                self._whole_view[v.id] = max(self._whole_view.get(v.id, 0.0), _side(o.box))
             kept_whole = not restart and v.footprint is not None and v.id not in self._partial
             grown = o.box.copy() if restart else union(v.footprint, o.box)
             if restart or extend or _side(grown) <= longest + BIG_MARGIN:
@@ -176,7 +189,9 @@ class NodeExtents:
         are seen whole often enough, and chairs around a table are a chair's width apart.
         The view then extends that node's footprint: a table whose far end was hidden by a
         chair until the chair went away grows to its whole length as the end comes into
-        view, a sliver at a time, instead of the next sliver becoming a second table.
+        view, a sliver at a time, instead of the next sliver becoming a second table. A node
+        that has been seen whole is not extended past its longest view: its size is known,
+        and what lies beyond it is a neighbour.
         """
         if not self.boxes or o.box is None:
             return None
@@ -189,12 +204,23 @@ class NodeExtents:
         with np.errstate(invalid="ignore"):
             big = (np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1])
                    > self.params.distance(o.category) + BIG_MARGIN)
-        hits = np.nonzero(big & overlapping(boxes, grown, 1e-9))[0]
+        hits = [k for k in np.nonzero(big & overlapping(boxes, grown, 1e-9))[0]
+                if not self._whole_and_shorter(graph.nodes[int(ids[k])], o.box)]
         if len(hits) == 0:
             return None
         gaps = [box_gap(boxes[k], o.box) for k in hits]
         best = min(range(len(hits)), key=lambda i: (gaps[i], int(ids[hits[i]])))
         return graph.nodes[int(ids[hits[best]])]
+
+    def _whole_and_shorter(self, v: Node, box: np.ndarray) -> bool:
+        """Whether this pass has seen ``v`` whole and ``box`` would make it longer than that
+        view (plus the noise margin): then the box is a neighbour's, not ``v``'s hidden end
+        (two cabinets half a metre apart on a depot floor, the new one seen only cut off,
+        became one node midway). A node only loaded from the store may be one whose end no
+        pass has seen yet, and still grows."""
+        whole = self._whole_view.get(v.id)
+        grown = union(v.footprint, box)
+        return whole is not None and grown is not None and _side(grown) > whole + BIG_MARGIN
 
     def overlapped(self, graph: ObjectGraph, o: Observation) -> list[int]:
         """Ids of same-category nodes whose footprint shares ``footprint_overlap`` of the
