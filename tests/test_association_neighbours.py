@@ -74,6 +74,24 @@ def test_a_cabinet_seen_whole_does_not_swallow_the_cabinet_beside_it_seen_cut_of
     assert cabinets[0].footprint[2] < 1.1  # the first keeps its own length
 
 
+def test_a_table_seen_whole_end_on_grows_along_its_hidden_length():
+    """A 1.6 m table: its near part seen past a chair (cut off), then the table seen whole from
+    its end, a box 0.8 m across and a few cm deep: its length lies along the line of sight,
+    unseen. Its far end, seen cut off past another chair, lengthens it: one table, not two
+    halves (Environment A seed 337, pass 1: ten tables split in two when a whole view's
+    longer side capped every side)."""
+    graph = ObjectGraph(AssociationParams())
+    t = 0.0
+    frames = [view("table", -0.4, 0.4, y0=-0.8, y1=0.2, truncated=True)] * 3
+    frames += [view("table", -0.4, 0.4, y0=-0.8, y1=-0.7)] * 2
+    frames += [view("table", -0.4, 0.4, y0=0.35, y1=0.8, truncated=True)] * 3
+    for o in frames:
+        graph.associate([o], [] if o.box[1] > 0.0 else list(graph.nodes), 1, t)  # the near end hidden
+        t += 1.0
+    assert list(graph.nodes) == [0], [np.round(v.position, 2).tolist() for v in graph.nodes.values()]
+    assert np.allclose(graph.nodes[0].footprint[[1, 3]], [-0.8, 0.8])
+
+
 def test_a_table_seen_only_cut_off_still_grows_to_its_hidden_end():
     """The other side of that rule: a table never seen whole (chairs in front) whose far end
     comes into view as a sliver is one table, its footprint grown to the sliver."""

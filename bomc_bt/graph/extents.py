@@ -21,6 +21,9 @@ if TYPE_CHECKING:
     from bomc_bt.graph.object_graph import ObjectGraph
 
 
+# [-] a whole view's side at least this share of its longer side was seen across the line of
+# sight, in full (a table seen end-on: 0.8 m across, a few cm deep, its length hidden)
+_ACROSS_SHARE = 0.75
 # m: a footprint longer than delta_c by this much on a side is a big object's (a table's),
 # not a small one seen with noise (a chair's box is about delta_c long when seen corner-on)
 BIG_MARGIN = 2.0 * NOISE_PAD
@@ -43,7 +46,7 @@ class NodeExtents:
         self.params = params
         self.boxes = params.footprint_overlap > 0.0  # footprints take part in association
         self._longest_view: dict[int, float] = {}  # node id: longest side of one view's box
-        self._whole_view: dict[int, float] = {}  # node id: longest side of a whole view's box, this pass
+        self._whole_view: dict[int, np.ndarray] = {}  # node id: widest x, y of its whole views' boxes, this pass
         # nodes whose footprint holds only views cut off by an occluder or the image border
         # (a footprint loaded from the store counts as whole: a pass saw most objects whole)
         self._partial: set[int] = set()
@@ -96,7 +99,7 @@ class NodeExtents:
         grown = union(keep.footprint, drop.footprint)
         longest = max(self._longest(keep), self._longest(drop))
         if drop.id in self._whole_view:
-            self._whole_view[keep.id] = max(self._whole_view.get(keep.id, 0.0), self._whole_view.pop(drop.id))
+            self._saw_whole(keep.id, self._whole_view.pop(drop.id))
         if keep.footprint is None or grown is None or _side(grown) <= longest + BIG_MARGIN:
             graph.set_footprint(keep, grown)
             self._mark(keep.id, whole)
@@ -111,7 +114,7 @@ class NodeExtents:
         self._longest_view.pop(v.id, None)
         self._whole_view.pop(v.id, None)
         if arrival.id in self._whole_view:
-            self._whole_view[v.id] = self._whole_view[arrival.id]
+            self._whole_view[v.id] = self._whole_view[arrival.id].copy()
         self._mark(v.id, arrival.id not in self._partial)
 
     def restart(self, graph: ObjectGraph, v: Node, o: Observation) -> None:
@@ -120,19 +123,23 @@ class NodeExtents:
         self._longest_view.pop(v.id, None)
         self._whole_view.pop(v.id, None)
         if o.box is not None and not o.truncated:
-            self._whole_view[v.id] = _side(o.box)
+            self._saw_whole(v.id, _sides(o.box))
         self._mark(v.id, not o.truncated)
 
     def to_json(self) -> dict:
-        """What a resumed pass needs: longest views and partial footprints (JSON-able)."""
+        """What a resumed pass needs: longest views, longest whole views, partial footprints (JSON-able)."""
         return {"longest": {str(i): x for i, x in self._longest_view.items()}, "partial": sorted(self._partial),
-                "whole": {str(i): x for i, x in self._whole_view.items()}}
+                "whole": {str(i): x.tolist() for i, x in self._whole_view.items()}}
 
     def restore(self, data: dict) -> None:
         """Put back what :meth:`to_json` saved."""
         self._longest_view = {int(k): float(x) for k, x in data.get("longest", {}).items()}
         self._partial = {int(i) for i in data.get("partial", [])}
-        self._whole_view = {int(k): float(x) for k, x in data.get("whole", {}).items()}
+        self._whole_view = {int(k): np.array(x, dtype=float) for k, x in data.get("whole", {}).items()}
+
+    def _saw_whole(self, node_id: int, sides: np.ndarray) -> None:
+        seen = self._whole_view.get(node_id)
+        self._whole_view[node_id] = sides.copy() if seen is None else np.maximum(seen, sides)
 
     def _mark(self, node_id: int, whole: bool) -> None:
         if whole:
@@ -170,7 +177,7 @@ class NodeExtents:
                           _side(o.box))
             self._longest_view[v.id] = longest
             if not o.truncated:
-                self._whole_view[v.id] = max(self._whole_view.get(v.id, 0.0), _side(o.box))
+                self._saw_whole(v.id, _sides(o.box))
             kept_whole = not restart and v.footprint is not None and v.id not in self._partial
             grown = o.box.copy() if restart else union(v.footprint, o.box)
             if restart or extend or _side(grown) <= longest + BIG_MARGIN:
@@ -190,8 +197,8 @@ class NodeExtents:
         The view then extends that node's footprint: a table whose far end was hidden by a
         chair until the chair went away grows to its whole length as the end comes into
         view, a sliver at a time, instead of the next sliver becoming a second table. A node
-        that has been seen whole is not extended past its longest view: its size is known,
-        and what lies beyond it is a neighbour.
+        that has been seen whole is not extended past that view across the line of sight:
+        its size there is known, and what lies beyond it is a neighbour.
         """
         if not self.boxes or o.box is None:
             return None
@@ -213,14 +220,22 @@ class NodeExtents:
         return graph.nodes[int(ids[hits[best]])]
 
     def _whole_and_shorter(self, v: Node, box: np.ndarray) -> bool:
-        """Whether this pass has seen ``v`` whole and ``box`` would make it longer than that
-        view (plus the noise margin): then the box is a neighbour's, not ``v``'s hidden end
-        (two cabinets half a metre apart on a depot floor, the new one seen only cut off,
-        became one node midway). A node only loaded from the store may be one whose end no
-        pass has seen yet, and still grows."""
+        """Whether this pass has seen ``v`` whole and ``box`` would make it longer than those
+        views (plus the noise margin) along a side they show in full: then the box is a
+        neighbour's, not ``v``'s hidden end (two cabinets half a metre apart on a depot
+        floor, the new one seen only cut off, became one node midway).
+
+        A whole view shows an object's full extent across the line of sight, not along it:
+        a table seen end-on is a box 0.8 m wide and a few cm deep, and its far end, seen
+        cut off later, lengthens the shallow side. So only a side at least
+        ``_ACROSS_SHARE`` of the view's longer side counts as shown in full. A node only
+        loaded from the store may be one whose end no pass has seen yet, and still grows."""
         whole = self._whole_view.get(v.id)
         grown = union(v.footprint, box)
-        return whole is not None and grown is not None and _side(grown) > whole + BIG_MARGIN
+        if whole is None or grown is None:
+            return False
+        shown = whole >= _ACROSS_SHARE * whole.max()
+        return bool((shown & (_sides(grown) > whole + BIG_MARGIN)).any())
 
     def overlapped(self, graph: ObjectGraph, o: Observation) -> list[int]:
         """Ids of same-category nodes whose footprint shares ``footprint_overlap`` of the
@@ -238,3 +253,8 @@ class NodeExtents:
 def _side(box: np.ndarray) -> float:
     """The longer side of a floor box."""
     return float(max(box[2] - box[0], box[3] - box[1]))
+
+
+def _sides(box: np.ndarray) -> np.ndarray:
+    """The floor box's x and y extents."""
+    return np.array([box[2] - box[0], box[3] - box[1]], dtype=float)
