@@ -104,6 +104,25 @@ class NodeExtents:
             graph.set_footprint(keep, grown)
             self._mark(keep.id, whole)
 
+    def longest_whole(self, graph: ObjectGraph) -> dict[str, float]:
+        """Per category: the longest side of a whole view of any of its nodes this pass."""
+        out: dict[str, float] = {}
+        for node_id, sides in self._whole_view.items():
+            v = graph.nodes.get(node_id)
+            if v is not None:
+                out[v.category] = max(out.get(v.category, 0.0), float(sides.max()))
+        return out
+
+    def join(self, graph: ObjectGraph, keep: Node, drop: Node) -> None:
+        """``drop`` is the other part of ``keep``'s object (:mod:`bomc_bt.graph.parts`): the
+        footprint covers both."""
+        whole = keep.id not in self._partial or drop.id not in self._partial
+        graph.set_footprint(keep, union(keep.footprint, drop.footprint))
+        self._longest_view[keep.id] = max(self._longest(keep), self._longest(drop))
+        if drop.id in self._whole_view:
+            self._saw_whole(keep.id, self._whole_view.pop(drop.id))
+        self._mark(keep.id, whole)
+
     def _longest(self, v: Node) -> float:
         """The longest single view of ``v`` (its footprint's side when loaded from the store)."""
         return self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0)

@@ -63,7 +63,8 @@ import numpy as np
 
 from bomc_bt.graph.association import near_any
 from bomc_bt.graph.co_observed import CoObserved
-from bomc_bt.graph.extents import NodeExtents
+from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
+from bomc_bt.graph.parts import part_pairs
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.tentative import TentativeSightings
@@ -278,11 +279,28 @@ class RobustPolicy:
                          candidate: Callable[[Node], bool]) -> list[Event]:
         """When the pass ends: each node it removed, paired with a ``candidate`` node it
         added (:func:`~bomc_bt.graph.relocations.relocation_pairs`), moved there."""
+        events = self._join_parts(graph, session, stamp)
         removed = [v for v in graph.removed_this_session() if v.first_session < session]
         arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
-        events: list[Event] = []
         for v, arrival in relocation_pairs(removed, arrivals, self.params.relocation_radius):
             events.extend(self._moved_to(graph, v, arrival, session, stamp))
+        return events
+
+    def _join_parts(self, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:
+        """When the pass ends: two nodes it saw that are the two ends of one object
+        (:func:`~bomc_bt.graph.parts.part_pairs`) become one, in the middle."""
+        if not self.extents.boxes or not self.params.separate_neighbours:
+            return []
+        seen = [v for v in graph.nodes.values() if v.last_session == session]
+        events: list[Event] = []
+        for a, b in part_pairs(seen, self.extents.longest_whole(graph), BIG_MARGIN, self.co_observed.seen_apart):
+            keep, drop = (a, b) if (a.observations, -a.id) >= (b.observations, -b.id) else (b, a)
+            self.extents.join(graph, keep, drop)
+            graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
+            graph.add_observations(keep, drop.observations)
+            graph.set_confidence(keep, max(keep.confidence, drop.confidence))
+            events.append(graph.remove(drop, session, stamp, merged_into=keep.id))
+            events.append(graph.report("updated", keep, session, stamp))
         return events
 
     def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
