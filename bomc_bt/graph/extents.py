@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bomc_bt.graph.footprints import NOISE_PAD, box_gap, half_diagonal, inside, overlapping, union
+from bomc_bt.graph.footprints import NOISE_PAD, box_gap, half_diagonal, inside, longest_side, overlapping, union
 from bomc_bt.graph.records import AssociationParams, Node, Observation
 
 if TYPE_CHECKING:
@@ -61,7 +61,7 @@ class NodeExtents:
     def is_big(self, v: Node) -> bool:
         """Whether the node's footprint is longer than delta_c on a side: a table, not a cup."""
         fp = v.footprint
-        return self.boxes and fp is not None and _side(fp) > self.params.distance(v.category) + BIG_MARGIN
+        return self.boxes and fp is not None and longest_side(fp) > self.params.distance(v.category) + BIG_MARGIN
 
     def separate(self, v: Node, o: Observation) -> bool:
         """Whether ``o`` is plainly not ``v``'s object: ``v`` is small, its footprint holds a
@@ -85,7 +85,7 @@ class NodeExtents:
             return False
         if v.id in self._partial or w.footprint is None or w.id in self._partial or self.is_big(w):
             return False
-        return _side(v_footprint) <= self.params.distance(v.category) + BIG_MARGIN \
+        return longest_side(v_footprint) <= self.params.distance(v.category) + BIG_MARGIN \
             and box_gap(v_footprint, w.footprint) > NOISE_PAD
 
     def fold(self, graph: ObjectGraph, keep: Node, drop: Node) -> None:
@@ -100,7 +100,7 @@ class NodeExtents:
         longest = max(self._longest(keep), self._longest(drop))
         if drop.id in self._whole_view:
             self._saw_whole(keep.id, self._whole_view.pop(drop.id))
-        if keep.footprint is None or grown is None or _side(grown) <= longest + BIG_MARGIN:
+        if keep.footprint is None or grown is None or longest_side(grown) <= longest + BIG_MARGIN:
             graph.set_footprint(keep, grown)
             self._mark(keep.id, whole)
 
@@ -125,7 +125,7 @@ class NodeExtents:
 
     def _longest(self, v: Node) -> float:
         """The longest single view of ``v`` (its footprint's side when loaded from the store)."""
-        return self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0)
+        return self._longest_view.get(v.id, longest_side(v.footprint) if v.footprint is not None else 0.0)
 
     def adopt(self, graph: ObjectGraph, v: Node, arrival: Node) -> None:
         """``v`` moved to where ``arrival`` stands: it takes the arrival's footprint."""
@@ -192,14 +192,14 @@ class NodeExtents:
         if self.boxes and o.box is not None:
             if restart and v.footprint is not None and inside(o.box, v.footprint, NOISE_PAD):
                 restart = False
-            longest = max(self._longest_view.get(v.id, _side(v.footprint) if v.footprint is not None else 0.0),
-                          _side(o.box))
+            longest = max(self._longest_view.get(v.id, longest_side(v.footprint) if v.footprint is not None else 0.0),
+                          longest_side(o.box))
             self._longest_view[v.id] = longest
             if not o.truncated:
                 self._saw_whole(v.id, _sides(o.box))
             kept_whole = not restart and v.footprint is not None and v.id not in self._partial
             grown = o.box.copy() if restart else union(v.footprint, o.box)
-            if restart or extend or _side(grown) <= longest + BIG_MARGIN:
+            if restart or extend or longest_side(grown) <= longest + BIG_MARGIN:
                 graph.set_footprint(v, grown)
                 self._mark(v.id, kept_whole or not o.truncated)
 
@@ -269,9 +269,6 @@ class NodeExtents:
         return sorted(int(i) for i in ids[hit])
 
 
-def _side(box: np.ndarray) -> float:
-    """The longer side of a floor box."""
-    return float(max(box[2] - box[0], box[3] - box[1]))
 
 
 def _sides(box: np.ndarray) -> np.ndarray:

@@ -45,6 +45,11 @@ def box_gap(a: np.ndarray, b: np.ndarray) -> float:
     return math.hypot(dx, dy)
 
 
+def longest_side(box: np.ndarray) -> float:
+    """The longer side of a floor box."""
+    return float(max(box[2] - box[0], box[3] - box[1]))
+
+
 def half_diagonal(box: np.ndarray) -> float:
     """Half the box's diagonal: how far its corners reach from its middle."""
     return 0.5 * math.hypot(box[2] - box[0], box[3] - box[1])
