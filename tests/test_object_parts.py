@@ -48,3 +48,38 @@ def test_ends_seen_in_one_frame_as_two_objects_and_whole_chairs_side_by_side_sta
     _see(graph, [[view("chair", -0.6, -0.1)]] * 3 + [[view("chair", 0.2, 0.7)]] * 3)
     graph.pair_relocations(1, 99.0)
     assert len(graph.nodes) == 2  # each the size a chair is seen whole at: no parts
+
+
+def _tables_among_chairs() -> list:
+    """Three 1.6 m tables among chairs, each seen only cut off (a chair borders every view,
+    hiding 0.1 m of one end or the other), and one smaller 1.0 m table seen whole: the
+    longest whole view of a table on this floor is 1.0 m."""
+    frames = []
+    for y in (10.0, 14.0, 18.0):
+        frames += [[view("table", 9.2, 10.7, truncated=True, y0=y - 0.4, y1=y + 0.4)],
+                   [view("table", 9.3, 10.8, truncated=True, y0=y - 0.4, y1=y + 0.4)]] * 2
+    return frames + [[view("table", 20.0, 21.0, y0=-0.3, y1=0.3)]] * 3
+
+
+def test_ends_join_where_tables_are_never_seen_whole_at_full_length_but_their_footprints_show_it():
+    graph = ObjectGraph(AssociationParams())
+    t = _see(graph, _tables_among_chairs())
+    t = _see(graph, [[view("table", -0.8, -0.3, truncated=True, y0=-0.4, y1=0.4)]] * 3, t)
+    _see(graph, [[view("table", 0.3, 0.8, truncated=True, y0=-0.4, y1=0.4)]] * 3, t)
+    assert len(graph.nodes) == 6  # each end is 0.8 m long (the table's width): no part of a 1.0 m table
+    graph.pair_relocations(1, 99.0)
+    assert len(graph.nodes) == 5  # against the 1.6 m the footprints show, two ends of one table
+    middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
+    assert abs(middle.position[0]) < 0.05 and np.allclose(middle.footprint[[0, 2]], [-0.8, 0.8])
+
+
+def test_chair_footprints_bled_over_a_neighbour_do_not_make_two_chairs_parts_of_one():
+    graph = ObjectGraph(AssociationParams())
+    frames = [[view("chair", 5.0 * k, 5.0 * k + 1.0, truncated=True)] for k in range(1, 5)]  # masks over two chairs
+    frames += [[view("chair", 30.0, 30.5)]] * 2  # a chair seen whole: 0.5 m
+    t = _see(graph, frames * 2)
+    t = _see(graph, [[view("chair", -0.6, -0.3, truncated=True)]] * 3, t)
+    _see(graph, [[view("chair", 0.3, 0.6, truncated=True)]] * 3, t)
+    before = len(graph.nodes)
+    graph.pair_relocations(1, 99.0)
+    assert len(graph.nodes) == before  # against the 1.0 m footprints, two 0.3 m parts 1.2 m across would join

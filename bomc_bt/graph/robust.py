@@ -64,7 +64,7 @@ import numpy as np
 from bomc_bt.graph.association import near_any
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
-from bomc_bt.graph.parts import part_pairs
+from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.tentative import TentativeSightings
@@ -293,7 +293,9 @@ class RobustPolicy:
             return []
         seen = [v for v in graph.nodes.values() if v.last_session == session]
         events: list[Event] = []
-        for a, b in part_pairs(seen, self.extents.longest_whole(graph), BIG_MARGIN, self.co_observed.seen_apart):
+        reference = reference_lengths(seen, self.extents.longest_whole(graph),
+                                      lambda c: self.params.distance(c) + BIG_MARGIN)
+        for a, b in part_pairs(seen, reference, BIG_MARGIN, self.co_observed.seen_apart):
             keep, drop = (a, b) if (a.observations, -a.id) >= (b.observations, -b.id) else (b, a)
             self.extents.join(graph, keep, drop)
             graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
