@@ -10,7 +10,6 @@ applies it to the graph, through its public API.
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -25,8 +24,6 @@ if TYPE_CHECKING:
 # [-] a whole view's side at least this share of its longer side was seen across the line of
 # sight, in full (a table seen end-on: 0.8 m across, a few cm deep, its length hidden)
 _ACROSS_SHARE = 0.75
-# [count] nodes of a category with views this pass before its longest view caps footprints
-_CAP_NODES = 3
 # m: a footprint longer than delta_c by this much on a side is a big object's (a table's),
 # not a small one seen with noise (a chair's box is about delta_c long when seen corner-on)
 BIG_MARGIN = 2.0 * NOISE_PAD
@@ -220,9 +217,7 @@ class NodeExtents:
         chair until the chair went away grows to its whole length as the end comes into
         view, a sliver at a time, instead of the next sliver becoming a second table. A node
         that has been seen whole is not extended past that view across the line of sight:
-        its size there is known, and what lies beyond it is a neighbour. No node is
-        extended past the longest single view of its category this pass (plus the margin):
-        no object of that category has shown itself longer.
+        its size there is known, and what lies beyond it is a neighbour.
         """
         if not self.boxes or o.box is None:
             return None
@@ -235,27 +230,13 @@ class NodeExtents:
         with np.errstate(invalid="ignore"):
             big = (np.maximum(boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1])
                    > self.params.distance(o.category) + BIG_MARGIN)
-        cap = self._longest_of_category(graph, o.category) + BIG_MARGIN
         hits = [k for k in np.nonzero(big & overlapping(boxes, grown, 1e-9))[0]
-                if not self._whole_and_shorter(graph.nodes[int(ids[k])], o.box)
-                and longest_side(union(boxes[k], o.box)) <= cap]
+                if not self._whole_and_shorter(graph.nodes[int(ids[k])], o.box)]
         if len(hits) == 0:
             return None
         gaps = [box_gap(boxes[k], o.box) for k in hits]
         best = min(range(len(hits)), key=lambda i: (gaps[i], int(ids[hits[i]])))
         return graph.nodes[int(ids[hits[best]])]
-
-    def _longest_of_category(self, graph: ObjectGraph, category: str) -> float:
-        """The longest single view of any node of ``category`` this pass (m): how long its
-        objects can be, once ``_CAP_NODES`` of its nodes have been seen (before that, no
-        limit: the first table of a floor, seen end by end, may be longer than any one
-        view). A footprint grown past it (plus the noise margin) by views of "hidden ends"
-        holds more than one object: on office-s a door detected on a table beside a door
-        made that door's footprint 2.45 m long, and a door taken for a table made a 1.2 m
-        table's 3.4 m, each node moving to the middle of it (0.6-0.75 m)."""
-        nodes = graph.nodes
-        views = [x for i, x in self._longest_view.items() if i in nodes and nodes[i].category == category]
-        return max(views) if len(views) >= _CAP_NODES else math.inf
 
     def _whole_and_shorter(self, v: Node, box: np.ndarray) -> bool:
         """Whether this pass has seen ``v`` whole and ``box`` would make it longer than those
