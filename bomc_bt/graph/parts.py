@@ -44,7 +44,7 @@ PART_SHARE = 0.6
 # must reach a length for it to count as the category's size: one or two footprints over
 # two objects do not set it
 FOOTPRINT_SHARE = 0.1
-FOOTPRINT_RANK = 3
+FOOTPRINT_RANK = 3  # [count] the fewest footprints that set a big category's size
 
 
 def reference_lengths(nodes: Iterable[Node], longest_whole: dict[str, float],
