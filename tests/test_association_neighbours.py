@@ -107,6 +107,49 @@ def test_a_table_seen_only_cut_off_still_grows_to_its_hidden_end():
     assert next(iter(graph.nodes.values())).footprint[2] >= 1.8
 
 
+def _tables_seen_whole(graph: ObjectGraph, length: float) -> float:
+    """Three tables ``length`` long seen whole, far from the origin; the next stamp."""
+    t = 0.0
+    for y in (10.0, 14.0, 18.0):
+        for _ in range(2):
+            graph.associate([view("table", 0.0, length, y0=y - 0.4, y1=y + 0.4)], [], 1, t)
+            t += 1.0
+    return t
+
+
+def test_no_hidden_end_makes_a_table_longer_than_the_tables_of_its_floor():
+    """Tables here are 1.2 m long. A cut-off "table" 0.4 m beyond a table's end is not that
+    table's hidden end (office-s: a door the detector took for a table stretched a 1.2 m
+    table to 3.4 m and moved it 0.75 m). The table keeps its footprint and its place, and
+    the view makes no table of its own."""
+    graph = ObjectGraph(AssociationParams())
+    t = _tables_seen_whole(graph, 1.2)
+    for _ in range(3):
+        graph.associate([view("table", 0.0, 1.2, truncated=True, y0=-0.4, y1=0.4)], [], 1, t)
+        t += 1.0
+    table = min(graph.nodes.values(), key=lambda v: abs(v.position[1]))
+    for _ in range(3):
+        graph.associate([view("table", 1.6, 2.6, truncated=True, y0=-0.4, y1=0.4)], [], 1, t)
+        t += 1.0
+    assert np.allclose(table.footprint, [0.0, -0.4, 1.2, 0.4]) and abs(table.position[0] - 0.6) < 0.05
+    assert len(graph.nodes) == 4
+
+
+def test_a_table_seen_cut_off_grows_to_the_length_of_the_tables_of_its_floor():
+    """Tables here are 1.6 m long; one seen only past its chairs (1.2 m of it) grows to its
+    far end when that comes into view: the limit is the floor's tables, not this view."""
+    graph = ObjectGraph(AssociationParams())
+    t = _tables_seen_whole(graph, 1.6)
+    for _ in range(3):
+        graph.associate([view("table", 0.0, 1.2, truncated=True, y0=-0.4, y1=0.4)], [], 1, t)
+        t += 1.0
+    for _ in range(3):
+        graph.associate([view("table", 1.4, 1.6, truncated=True, y0=-0.4, y1=0.4)], [], 1, t)
+        t += 1.0
+    table = min(graph.nodes.values(), key=lambda v: abs(v.position[1]))
+    assert len(graph.nodes) == 4 and table.footprint[2] >= 1.6 - 1e-9
+
+
 def test_a_whole_view_makes_the_footprint_tell_neighbours_apart():
     """Once a whole view of the chair is in its footprint, a view beside it is a second chair."""
     graph = ObjectGraph(AssociationParams())

@@ -60,11 +60,18 @@ def reference_lengths(nodes: Iterable[Node], longest_whole: dict[str, float],
             lengths.setdefault(v.category, []).append(longest_side(v.footprint))
     out = dict(longest_whole)
     for category, whole in longest_whole.items():
-        sides = sorted(lengths.get(category, []), reverse=True)
-        rank = max(FOOTPRINT_RANK, math.ceil(FOOTPRINT_SHARE * len(sides)))
-        if whole > small(category) and len(sides) >= rank:
-            out[category] = max(whole, sides[rank - 1])
+        reached = footprint_length(lengths.get(category, []))
+        if whole > small(category) and reached is not None:
+            out[category] = max(whole, reached)
     return out
+
+
+def footprint_length(sides: list[float]) -> float | None:
+    """The length (m) that ``FOOTPRINT_SHARE`` of a category's footprints reach, and at
+    least the ``FOOTPRINT_RANK``-th longest of ``sides`` (their longest sides); None with
+    fewer footprints than that."""
+    rank = max(FOOTPRINT_RANK, math.ceil(FOOTPRINT_SHARE * len(sides)))
+    return sorted(sides, reverse=True)[rank - 1] if len(sides) >= rank else None
 
 
 def part_pairs(nodes: Iterable[Node], reference: dict[str, float], margin: float,

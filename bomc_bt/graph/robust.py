@@ -133,8 +133,10 @@ class RobustPolicy:
             if j in matched_obs or len(near[j][0]) or near_any(o, placed, self.gate(o), graph.index.scale):
                 continue  # matched, or absorbed: a closer observation already matched that node
             if o.truncated and (v := self.extents.touched_node(graph, o)) is not None:
-                # a part of a known object, cut off by an occluder (see NodeExtents.touched_node)
-                events.extend(self._refresh(graph, v, o, session, stamp, restart=False, extend=True))
+                # a part of a known object, cut off by an occluder (see NodeExtents.touched_node),
+                # unless it would make that object longer than its kind (NodeExtents.fits)
+                if self.extents.fits(graph, v, o):
+                    events.extend(self._refresh(graph, v, o, session, stamp, restart=False, extend=True))
                 continue
             if self._relabelled(graph, o, matched_nodes) or not self.tentative.confirmed(o, stamp, self.gate(o)):
                 continue
