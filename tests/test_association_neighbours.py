@@ -150,6 +150,28 @@ def test_a_table_seen_cut_off_grows_to_the_length_of_the_tables_of_its_floor():
     assert len(graph.nodes) == 4 and table.footprint[2] >= 1.6 - 1e-9
 
 
+def test_a_chair_whose_footprint_bled_past_delta_c_does_not_take_its_neighbour_for_its_end():
+    """Chairs here are seen whole at 0.5 m. One, seen only cut off this pass, has a footprint
+    0.95 m long (mask bleed), so by its footprint it passes for big. A cut-off view of the
+    chair beside it is a second chair: not its hidden end (which made one chair 1.4 m long
+    in the middle of both) and not a view to drop (which lost the neighbour)."""
+    graph = ObjectGraph(AssociationParams())
+    t = 0.0
+    for y in (10.0, 14.0, 18.0):
+        for _ in range(2):
+            graph.associate([view("chair", 0.0, 0.5, y0=y - 0.25, y1=y + 0.25)], [], 1, t)
+            t += 1.0
+    for _ in range(2):
+        graph.associate([view("chair", -0.7, 0.25, truncated=True)], [], 1, t)
+        t += 1.0
+    for _ in range(4):
+        graph.associate([view("chair", 0.4, 0.7, truncated=True)], [], 1, t)
+        t += 1.0
+    here = sorted((v for v in graph.nodes.values() if abs(v.position[1]) < 1.0), key=lambda v: v.position[0])
+    assert [round(float(v.position[0]), 2) for v in here] == [-0.22, 0.55]
+    assert np.allclose(here[0].footprint, [-0.7, -0.25, 0.25, 0.25])
+
+
 def test_a_whole_view_makes_the_footprint_tell_neighbours_apart():
     """Once a whole view of the chair is in its footprint, a view beside it is a second chair."""
     graph = ObjectGraph(AssociationParams())
