@@ -241,10 +241,10 @@ class NodeExtents:
         return graph.nodes[int(ids[hits[best]])]
 
     def _small_category(self, graph: ObjectGraph, category: str) -> bool:
-        """Whether this pass has seen several objects of ``category`` whole (``FOOTPRINT_RANK``:
-        one table seen end-on shows only its width), and none longer than delta_c plus the
-        margin: chairs, whose nodes' footprints pass for big only by mask
-        bleed over a neighbour (0.93-1.06 m on Environment A). A cut-off view against such a
+        """Whether this pass has seen several objects of ``category`` whole (``FOOTPRINT_RANK``
+        of them: one table seen end-on shows only its width), none longer than delta_c plus
+        the margin: chairs, whose nodes' footprints pass for big only by mask bleed over a
+        neighbour (0.93-1.06 m on an Environment-A-size floor). A cut-off view against such a
         node is its neighbour, not its hidden end (seed 337: 26 chair views in two passes,
         among them the views of a chair just removed by misses, which could not come back)."""
         sides = [float(x.max()) for i, x in self._whole_view.items()
@@ -260,8 +260,8 @@ class NodeExtents:
         object: on office-s a door detected on a table beside a door stretched the door's
         footprint to 2.45 m, and a door taken for a table made a 1.2 m table's 3.4 m, each
         node moving 0.6-0.75 m to the middle of it. Such a view is a confusion or a false
-        detection on a neighbour, and is dropped: made into a node of its own instead, it
-        was a phantom (a depot over 12 passes: 6 phantoms became 12)."""
+        detection on a neighbour, and is dropped: a cap that made such views nodes of their
+        own instead added phantoms (depot seed 21 over 12 passes: 6 became 12)."""
         sides = [longest_side(w.footprint) for w in graph.nodes.values()
                  if w.category == v.category and w.footprint is not None]
         reached = footprint_length(sides)
