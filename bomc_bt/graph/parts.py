@@ -21,7 +21,7 @@ of a whole table is rare, and in the first pass over that floor the longest was 
 (of 1.6 m tables) while 16 of its 55 table nodes had footprints of 1.66-1.86 m. Against
 1.40 m no pair of ends was a part (ends are 0.85-0.92 m long: the table's width) and no
 joint box short enough; the join fired for 3 pairs and left ten phantoms (against the
-footprints: 11 pairs, 3 phantoms, all three passes within 1 % of the objects). Small
+footprints: 11 pairs, 3 phantoms in that pass). Small
 categories keep the whole views only: a chair's footprint may hold the bleed of a mask
 over its neighbour (the tenth longest chair footprint there was 0.97 m, whole views of
 chairs 0.67 m), and against 0.97 m two chairs would read as parts of one.
