@@ -38,8 +38,9 @@ class PairRelocations(Leaf):
 
     def update(self) -> Status:
         ctx = self.context
-        first_seen = {e.node_id for e in ctx.store.events(session=ctx.session) if is_first_seen(e)}
-        events = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen)
+        history = ctx.store.events(session=ctx.session)
+        first_seen = {e.node_id for e in history if is_first_seen(e)}
+        events = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen, history)
         if events:
             ctx.store.record(events, ctx.graph.drain_changed())
             if ctx.perception is not None:

@@ -26,6 +26,9 @@ The parts, one job each:
 * :mod:`~bomc_bt.graph.footprints` and :mod:`~bomc_bt.graph.extents` -- floor boxes and how
   big each node's object has shown itself;
 * :mod:`~bomc_bt.graph.tentative` -- first sightings awaiting confirmation;
+* :mod:`~bomc_bt.graph.relocations`, :mod:`~bomc_bt.graph.parts` and
+  :mod:`~bomc_bt.graph.returns` -- what the end of a pass settles: removals and additions
+  that were one object moved, two ends of one object, moves a late neighbour undoes;
 * :mod:`~bomc_bt.graph.operator_edits` -- the operator's corrections that both modes
   respect (a relabelled node keeps its label, a deleted one stays out);
 * :mod:`~bomc_bt.graph.reference` -- the naive linear-scan paper, the test oracle and the

@@ -137,6 +137,21 @@ class NodeExtents:
             self._whole_view[v.id] = self._whole_view[arrival.id].copy()
         self._mark(v.id, arrival.id not in self._partial)
 
+    def swap(self, graph: ObjectGraph, a: Node, b: Node) -> None:
+        """``a`` and ``b`` exchange places (a move taken back): each takes the other's footprint."""
+        box_a, box_b = a.footprint, b.footprint
+        graph.set_footprint(a, box_b)
+        graph.set_footprint(b, box_a)
+        for table in (self._longest_view, self._whole_view):
+            va, vb = table.pop(a.id, None), table.pop(b.id, None)
+            if vb is not None:
+                table[a.id] = vb
+            if va is not None:
+                table[b.id] = va
+        partial_a, partial_b = a.id in self._partial, b.id in self._partial
+        self._mark(a.id, not partial_b)
+        self._mark(b.id, not partial_a)
+
     def restart(self, graph: ObjectGraph, v: Node, o: Observation) -> None:
         """``v`` moved to where ``o`` saw it: its footprint starts over from the view."""
         graph.set_footprint(v, o.box)
