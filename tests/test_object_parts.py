@@ -83,3 +83,23 @@ def test_chair_footprints_bled_over_a_neighbour_do_not_make_two_chairs_parts_of_
     before = len(graph.nodes)
     graph.pair_relocations(1, 99.0)
     assert len(graph.nodes) == before  # against the 1.0 m footprints, two 0.3 m parts 1.2 m across would join
+
+
+def test_a_table_seen_over_most_of_its_length_takes_the_sliver_of_its_far_end():
+    graph = ObjectGraph(AssociationParams())
+    t = _see(graph, _whole_table_elsewhere())
+    t = _see(graph, [[view("table", 0.55, 0.8, truncated=True, y0=-0.4, y1=0.4)]] * 3, t)  # the far end past a chair
+    _see(graph, [[view("table", -0.8, 0.25, truncated=True, y0=-0.4, y1=0.4)]] * 3, t)  # 1.05 m: not a part
+    assert len(graph.nodes) == 3
+    graph.pair_relocations(1, 99.0)
+    middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
+    assert len(graph.nodes) == 2 and abs(middle.position[0]) < 0.05  # one table, in its middle
+
+
+def test_a_whole_chair_keeps_apart_from_a_sliver_of_its_neighbour():
+    graph = ObjectGraph(AssociationParams())
+    t = _see(graph, [[view("chair", 30.0, 30.5)]] * 3)  # chairs on this floor: 0.5 m
+    t = _see(graph, [[view("chair", -0.25, 0.25)]] * 3, t)
+    _see(graph, [[view("chair", 0.4, 0.55, truncated=True)]] * 3, t)  # the neighbour, mostly hidden
+    graph.pair_relocations(1, 99.0)
+    assert len(graph.nodes) == 3  # chairs are small: both must be parts to join

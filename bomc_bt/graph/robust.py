@@ -320,7 +320,8 @@ class RobustPolicy:
         events: list[Event] = []
         reference = reference_lengths(seen, self.extents.longest_whole(graph),
                                       lambda c: self.params.distance(c) + BIG_MARGIN)
-        for a, b in part_pairs(seen, reference, BIG_MARGIN, self.co_observed.seen_apart):
+        big = {c for c, length in reference.items() if length > self.params.distance(c) + BIG_MARGIN}
+        for a, b in part_pairs(seen, reference, BIG_MARGIN, self.co_observed.seen_apart, big):
             keep, drop = (a, b) if (a.observations, -a.id) >= (b.observations, -b.id) else (b, a)
             self.extents.join(graph, keep, drop)
             graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
