@@ -32,22 +32,29 @@ class StartSession(Leaf):
 
 @register("PairRelocations")
 class PairRelocations(Leaf):
-    """Before the session closes: a removal and an addition of this pass that were one
-    object moved become one move (:mod:`bomc_bt.graph.relocations`), written to the store
-    at once. A node first seen in this pass (no earlier pass saw its place) is no arrival."""
+    """Before the session closes: a move of this pass that a node added later at the old
+    place undoes is taken back (:mod:`bomc_bt.graph.returns`: a neighbour found late, not
+    the object gone), and a removal and an addition of this pass that were one object moved
+    become one move (:mod:`bomc_bt.graph.relocations`), written to the store at once. A
+    node first seen in this pass (no earlier pass saw its place) is no arrival."""
 
     def update(self) -> Status:
         ctx = self.context
         history = ctx.store.events(session=ctx.session)
         first_seen = {e.node_id for e in history if is_first_seen(e)}
-        events = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen, history)
+        taken_back = ctx.graph.take_back_moves(ctx.session, ctx.now(), history)
+        paired = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen)
+        events = taken_back + paired
         if events:
             ctx.store.record(events, ctx.graph.drain_changed())
             if ctx.perception is not None:
                 ctx.perception.events.extend(events)
-        moves = [f"{e.category} #{e.node_id}" for e in events if e.kind == "moved"]
+        moves = [f"{e.category} #{e.node_id}" for e in paired if e.kind == "moved"]
         self.feedback_message = f"{len(moves)} removal(s) paired with an addition as moved" + (
             f": {', '.join(moves[:5])}" if moves else "")
+        if taken_back:
+            back = [f"{e.category} #{e.node_id}" for e in taken_back[::2]]
+            self.feedback_message += f"; {len(back)} move(s) taken back: {', '.join(back[:5])}"
         return Status.SUCCESS
 
 

@@ -49,11 +49,11 @@ def test_a_node_moved_to_a_view_of_its_neighbour_goes_back_when_its_old_place_is
     # and the chair seen again at its place becomes node 1
     assert [e.kind for e in events][:3] == ["removed", "moved", "added"]
     assert net(session_1() + events) == [("added", 1), ("moved", 0)]  # what the pass said before
-    back = g.pair_relocations(2, 40.0, history=events)
+    back = g.take_back_moves(2, 40.0, events)
     assert [(e.kind, e.node_id) for e in back] == [("moved", 0), ("moved", 1)]
     assert np.allclose(g.nodes[0].position[:2], OLD) and np.allclose(g.nodes[1].position[:2], NEIGHBOUR)
     assert net(session_1() + events + back) == [("added", 1)]  # the neighbour is the one new chair
-    assert g.pair_relocations(2, 41.0, history=events + back) == []  # once is enough
+    assert g.take_back_moves(2, 41.0, events + back) == []  # once is enough
 
 
 def test_a_node_that_took_its_neighbours_arrival_gives_the_neighbour_back_its_sightings():
@@ -63,7 +63,7 @@ def test_a_node_that_took_its_neighbours_arrival_gives_the_neighbour_back_its_si
     assert len(merged) == 1 and merged[0].node_id == 1  # the arrival (node 1) folded into chair 0
     late = max(g.nodes)
     before = g.nodes[0].observations
-    back = g.pair_relocations(2, 40.0, history=events)
+    back = g.take_back_moves(2, 40.0, events)
     assert np.allclose(g.nodes[0].position[:2], OLD) and np.allclose(g.nodes[late].position[:2], NEIGHBOUR)
     carried = merged[0].detail["observations"]
     assert carried >= 1 and g.nodes[0].observations == before - carried
@@ -76,7 +76,7 @@ def test_a_real_move_stays_a_move():
     for k in range(3):  # the chair now stands at NEIGHBOUR; nothing stands at OLD any more
         events += g.associate([chair(*NEIGHBOUR)], [0] if 0 in g.nodes else [], 2, 10.0 + k)
     events += g.associate([chair(2.0, 0.0)], [], 2, 20.0)  # another chair, farther than delta_c from OLD
-    assert g.pair_relocations(2, 40.0, history=events) == []
+    assert g.take_back_moves(2, 40.0, events) == []
     assert ("moved", 0) in net(session_1() + events)
 
 
@@ -99,3 +99,9 @@ def test_only_a_node_added_after_the_move_and_nearer_the_old_place_undoes_it():
     assert [(m.moved.id, m.late.id) for m in found] == [(0, 1)]
     assert moves_taken_back([added(nearer, 9.0), move_at(10.0)], nodes, 2, lambda _c: 0.7) == []
     assert moves_taken_back([move_at(10.0), added(nearer, 12.0)], nodes, 3, lambda _c: 0.7) == []
+
+
+def test_the_paper_mode_takes_nothing_back():
+    g = ObjectGraph(AssociationParams(mode="paper"), [Node(0, "chair", np.array([*OLD, 0.45]), 0.9, 1, 1)])
+    history = [g.report("moved", g.nodes[0], 2, 10.0, np.array([*NEIGHBOUR, 0.45]))]
+    assert g.take_back_moves(2, 40.0, history) == []

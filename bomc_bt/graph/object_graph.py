@@ -127,15 +127,20 @@ class ObjectGraph:
             observations = self.edits.ignore_deleted(observations, self, self.params.readd_confidence)
         return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights)
 
-    def pair_relocations(self, session: int, stamp: float, candidate: Callable[[Node], bool] = lambda n: True,
-                         history: Sequence[Event] = ()) -> list[Event]:
+    def take_back_moves(self, session: int, stamp: float, history: Sequence[Event]) -> list[Event]:
         """When ``session`` ends: its moves that a node added later at the old place undoes
         are taken back (:mod:`bomc_bt.graph.returns`; ``history``: the session's events so
-        far), and its removals and additions that were one object moved become moves
-        (:mod:`bomc_bt.graph.relocations`; ``candidate`` says which added nodes may be such
-        an arrival). The paper's policy does neither."""
+        far). The paper's policy moves nothing, so takes nothing back."""
+        take_back = getattr(self.policy, "take_back_moves", None)
+        return [] if take_back is None else take_back(self, session, stamp, history)
+
+    def pair_relocations(self, session: int, stamp: float, candidate: Callable[[Node], bool] = lambda n: True
+                         ) -> list[Event]:
+        """When ``session`` ends: its removals and additions that were one object moved
+        become moves (:mod:`bomc_bt.graph.relocations`; ``candidate`` says which added nodes
+        may be such an arrival). The paper's policy pairs nothing."""
         pair = getattr(self.policy, "pair_relocations", None)
-        return [] if pair is None else pair(self, session, stamp, candidate, history)
+        return [] if pair is None else pair(self, session, stamp, candidate)
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.

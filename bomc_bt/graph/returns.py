@@ -18,7 +18,7 @@ exactly where it had stood (two changes), or the object never moved and the node
 to was its neighbour, found late (one change, or none when the neighbour is new to the
 map). The pass takes the second, smaller story: the moved node goes back and takes the
 late node's place and footprint, and the late node takes the place the moved one went to
-(:meth:`~bomc_bt.graph.robust.RobustPolicy.pair_relocations`). The late node keeps how it
+(:meth:`~bomc_bt.graph.robust.RobustPolicy.take_back_moves`). The late node keeps how it
 was added (``added`` or first seen), so the neighbour is reported as new or as new to the
 map, never as a move of the chair beside it.
 

@@ -279,23 +279,23 @@ class RobustPolicy:
         return [merged, graph.report("moved", v, session, stamp, previous)]
 
     def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
-                         candidate: Callable[[Node], bool], history: Sequence[Event] = ()) -> list[Event]:
-        """When the pass ends: its moves that a node added later at the old place undoes,
-        taken back (:mod:`~bomc_bt.graph.returns`; ``history``: the pass's events so far);
-        then each node it removed, paired with a ``candidate`` node it added
-        (:func:`~bomc_bt.graph.relocations.relocation_pairs`), moved there."""
-        events = self._take_back_moves(graph, session, stamp, history)
-        events.extend(self._join_parts(graph, session, stamp))
+                         candidate: Callable[[Node], bool]) -> list[Event]:
+        """When the pass ends: each node it removed, paired with a ``candidate`` node it
+        added (:func:`~bomc_bt.graph.relocations.relocation_pairs`), moved there."""
+        events = self._join_parts(graph, session, stamp)
         removed = [v for v in graph.removed_this_session() if v.first_session < session]
         arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
         for v, arrival in relocation_pairs(removed, arrivals, self.params.relocation_radius):
             events.extend(self._moved_to(graph, v, arrival, session, stamp))
         return events
 
-    def _take_back_moves(self, graph: ObjectGraph, session: int, stamp: float,
-                         history: Sequence[Event]) -> list[Event]:
-        """The moved node goes back to its old place, where the late node stands; the late
-        node (and the sightings of the arrival the move had folded in) takes the moved-to place."""
+    def take_back_moves(self, graph: ObjectGraph, session: int, stamp: float,
+                        history: Sequence[Event]) -> list[Event]:
+        """When the pass ends: each of its moves that a node added later at the old place
+        undoes (:mod:`~bomc_bt.graph.returns`; ``history``: the pass's events so far) is
+        taken back. The moved node goes back to its old place, where the late node stands;
+        the late node (and the sightings of the arrival the move had folded in) takes the
+        moved-to place."""
         events: list[Event] = []
         for m in moves_taken_back(history, graph.nodes, session, self.params.distance):
             back, late = m.moved, m.late

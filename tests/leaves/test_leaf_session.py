@@ -120,3 +120,22 @@ def test_pair_relocations_leaves_a_first_seen_node_as_it_is(ctx):
     leaf = PairRelocations("Pair", None, ctx)
     assert tick(leaf) == Status.SUCCESS and leaf.feedback_message.startswith("0 removal(s)")
     assert "moved" not in [e.kind for e in ctx.store.events(session=2)] and 0 not in ctx.graph.nodes
+
+
+def test_pair_relocations_takes_back_a_move_onto_a_neighbour_found_late(ctx):
+    """Chair 0 (session 1) hidden behind its neighbour, which no pass had given a node:
+    the pass moved chair 0's node onto the neighbour, then saw chair 0 where it stands."""
+    params = AssociationParams(confirm_misses=1, confirm_detections=1)
+    ctx.graph = ObjectGraph(params, [Node(0, "chair", np.array([0.0, 0.0, 0.45]), 0.9, 1, 1, observations=9)])
+    ctx.session = 2
+
+    def chair(x: float) -> Observation:
+        return Observation("chair", np.array([x, 0.0, 0.45]), 0.9, 500, 0.0)
+
+    events = ctx.graph.associate([chair(0.75)], [0], 2, 10.0)  # chair 0 missed, its neighbour seen
+    events += ctx.graph.associate([chair(0.0), chair(0.75)], [0], 2, 20.0)
+    ctx.store.record(events, ctx.graph.drain_changed())
+    leaf = PairRelocations("Pair", None, ctx)
+    assert tick(leaf) == Status.SUCCESS and leaf.feedback_message.endswith("1 move(s) taken back: chair #0")
+    stored = {n.id: n.position[0] for n in ctx.store.nodes()}
+    assert abs(stored[0]) < 1e-9 and abs(stored[1] - 0.75) < 1e-9
