@@ -286,10 +286,9 @@ class ProjectionParams:
     # objects are small in the image and often missed, so their absence proves little. The
     # one camera reach every planner of views uses (Look Around, gap and refresh viewpoints).
     expect_range: float = 5.0
-    # [-] robust: share of a node's body (centre and inset footprint corners, at its centroid's
-    # height and halfway down to the floor) a frame must show unoccluded for a miss to count:
-    # an object mostly hidden (a door leaf seen through its doorway) is missed by any
-    # detector, and its absence there proves nothing. 0: centre only
+    # [-] robust: share of a node's body (centre and inset footprint corners) a frame must show
+    # unoccluded for a miss to count: an object mostly hidden (a door leaf seen through its
+    # doorway) is missed by any detector, and its absence there proves nothing. 0: centre only
     expect_visible: float = 0.6
     # [m] robust: a miss within this range of the camera counts fully; farther it weighs less,
     # down to nothing at expect_range (far objects are small in the image and often missed)

@@ -52,17 +52,3 @@ def test_only_flat_footprints_seen_past_the_limit_are_edge_on():
     assert edge_on([flat, square, unknown, turned], camera, 65.0).tolist() == [True, False, False, False]
     assert edge_on([flat], camera, 80.0).tolist() == [False]
     assert edge_on([flat], np.array([0.0, -3.0]), 65.0).tolist() == [False]
-
-
-def chair_node(x: float, y: float, z: float) -> Node:
-    return Node(2, "chair", np.array([x, y, z]), 0.9, 1, 1, footprint=(x - 0.25, y - 0.25, x + 0.25, y + 0.25))
-
-
-def test_a_chair_seen_only_over_the_chair_in_front_is_no_evidence():
-    front = WorldObject("chair-front", "chair", (-2.5, -1.5, 0.45), (0.5, 0.5, 0.9), yaw=0.0)
-    camera = Pose2D(-4.5, -1.5, 0.0)  # looking along +x at both chairs, 2 and 4 m away
-    high = chair_node(-0.5, -1.5, 0.85)  # its centroid where the camera saw it: its top, over the front chair
-    # the chair behind is gone; its body is hidden below the front chair's top, so the frame proves nothing
-    assert expected_nodes(render([front], camera), [high], ProjectionParams()) == []
-    # with nothing in front, the same node is in plain view and its absence counts
-    assert expected_nodes(render([], camera), [high], ProjectionParams()) == [high]

@@ -27,13 +27,7 @@ a present object, three near ones rarely.
 
 The body is sampled at the node's centroid height: its centre and, when the node has a
 floor footprint, the footprint's corners pulled ``_INSET`` towards the middle (the true
-outline is noisy and a corner against a wall must not read as hidden by it); and the same
-again at ``_LOW`` of that height, halfway down to the floor. A centroid sits where the
-camera saw the object, and a chair seen only over the chair in front of it has its
-centroid at its top (0.75-0.86 m for chairs whose true centre is at 0.45 m): sampled there
-alone, the chair read as in plain view while its body was hidden, the detector missed what
-little showed, and the chair was removed while it stood there (Environment A size, seed
-341 pass 2: two of six phantom events). Hidden below, such a view is no evidence.
+outline is noisy and a corner against a wall must not read as hidden by it).
 """
 
 from __future__ import annotations
@@ -49,31 +43,26 @@ from bomc_bt.robot import RGBDFrame
 
 _INSET = 0.2  # share of the footprint's half-size the sampled corners lie inside it
 _FLAT_ASPECT = 3.0  # a footprint this many times longer than wide is a flat object's (a door leaf's)
-_LOW = 0.5  # share of the centroid's height the lower ring of body samples lies at
 
 
 def body_samples(node: Node) -> np.ndarray:
-    """(k, 3) points on the node's object: its centre first, then its footprint's inset
-    corners, then the same points at ``_LOW`` of the centre's height."""
+    """(k, 3) points on the node's object: its centre first, then its footprint's inset corners."""
     centre = np.asarray(node.position, dtype=float).reshape(1, 3)
     fp = node.footprint
-    ring = centre[:, :2]
-    if fp is not None:
-        mid = np.array([(fp[0] + fp[2]) / 2.0, (fp[1] + fp[3]) / 2.0])
-        corners = np.array([[fp[0], fp[1]], [fp[2], fp[1]], [fp[2], fp[3]], [fp[0], fp[3]]])
-        ring = np.vstack([ring, mid + (corners - mid) * (1.0 - _INSET)])
-    z = float(centre[0, 2])
-    top = np.hstack([ring, np.full((len(ring), 1), z)])
-    low = np.hstack([ring, np.full((len(ring), 1), _LOW * z)])
-    return np.vstack([top, low])
+    if fp is None:
+        return centre
+    mid = np.array([(fp[0] + fp[2]) / 2.0, (fp[1] + fp[3]) / 2.0])
+    corners = np.array([[fp[0], fp[1]], [fp[2], fp[1]], [fp[2], fp[3]], [fp[0], fp[3]]])
+    corners = mid + (corners - mid) * (1.0 - _INSET)
+    z = np.full((4, 1), centre[0, 2])
+    return np.vstack([centre, np.hstack([corners, z])])
 
 
 def expected_nodes(frame: RGBDFrame, candidates: Sequence[Node], params: ProjectionParams) -> list[Node]:
     """The ``candidates`` (nodes inside the field-of-view polygon) this frame is evidence about.
 
     A node is expected when it lies within ``expect_range`` of the camera, its centre is
-    visible (:func:`visible`) and at least ``expect_visible`` of its body samples
-    (:func:`body_samples`) are.
+    visible (:func:`visible`) and at least ``expect_visible`` of its body samples are.
     """
     if not candidates:
         return []
