@@ -298,6 +298,11 @@ class ProjectionParams:
     # detector may miss, and its absence there proves nothing. 90 (default): off, always
     # expected; 65 helped the hard detector preset's corridor doors (README: detector presets)
     expect_edge_on_deg: float = 90.0
+    # [m] robust: a miss counts only where the depth camera sees the node's place empty -- more
+    # than this beyond the node's centre, or a wall-high surface there. Something no higher
+    # than furniture standing where the node is (a chair seen only over the chair in front,
+    # which any detector misses) is no evidence of its absence. 0: off, every miss counts
+    absence_margin: float = 0.1
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the
     # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
     # the middle of the points' spread on the floor (1st to 99th percentile). The mean of the
@@ -320,6 +325,8 @@ class ProjectionParams:
             raise ValueError("expect_visible must be in [0, 1]")
         if not 0.0 <= self.expect_edge_on_deg <= 90.0:
             raise ValueError("expect_edge_on_deg must be in [0, 90]")
+        if not 0.0 <= self.absence_margin <= 1.0:
+            raise ValueError("absence_margin must be in [0, 1] m (0: off)")
         if self.box_range < 0.0:
             raise ValueError("box_range must be >= 0 (0: no boxes)")
         if self.fov_columns < 2:

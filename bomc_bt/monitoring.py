@@ -335,7 +335,7 @@ seen before it is written. With a store, every frame
                 self.looked_since.append(near.tolist())
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
         expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates
-        weights = miss_weights(frame, expected, self.params) if self.occlusion_check else None
+        weights = miss_weights(frame, expected, self.params, detections) if self.occlusion_check else None
         events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
                                       in_view=[n.id for n in candidates], miss_weights=weights)
         if self.seen_before is not None:  # an addition where no earlier pass looked is new to the map

@@ -1,4 +1,5 @@
-"""Which nodes a frame is evidence about: a flat object seen edge-on is not one of them."""
+"""Which nodes a frame is evidence about: a flat object seen edge-on is not one of them, and a
+miss counts only where the depth camera sees the node's place empty."""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import Node
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.perception.expected import edge_on, expected_nodes
+from bomc_bt.perception.expected import edge_on, expected_nodes, miss_weights
+from bomc_bt.perception.frames import Detection
 from bomc_bt.sim.camera import CameraParams, SimCamera
 from bomc_bt.world import WorldObject
 
@@ -52,3 +54,40 @@ def test_only_flat_footprints_seen_past_the_limit_are_edge_on():
     assert edge_on([flat, square, unknown, turned], camera, 65.0).tolist() == [True, False, False, False]
     assert edge_on([flat], camera, 80.0).tolist() == [False]
     assert edge_on([flat], np.array([0.0, -3.0]), 65.0).tolist() == [False]
+
+
+def chair(name: str, x: float, y: float = -1.5) -> WorldObject:
+    return WorldObject(name, "chair", (x, y, 0.45), (0.5, 0.5, 0.9), yaw=0.0)
+
+
+def test_a_chair_seen_only_over_the_table_in_front_is_no_evidence_of_its_absence():
+    camera = Pose2D(-4.0, -1.5, 0.0)  # looking along +x over a table at the chair behind it
+    table = WorldObject("t", "table", (-1.8, -1.5, 0.375), (0.8, 1.6, 0.75), yaw=0.0)
+    behind = chair("b", -0.9)
+    node = Node(2, "chair", np.array([-0.9, -1.5, 0.82]), 0.5, 1, 1,  # its top: all pass 1 saw of it
+                footprint=(-1.15, -1.75, -0.65, -1.25))
+    both, table_only = render([table, behind], camera), render([table], camera)
+    params = ProjectionParams()
+    # It stands there: its back fills the place, nothing wall-high does: a miss weighs nothing.
+    assert expected_nodes(both, [node], params) == [node]
+    assert miss_weights(both, [node], params) == [0.0]
+    # Taken away: the camera sees past its place, and the miss counts.
+    assert expected_nodes(table_only, [node], params) == [node]
+    assert miss_weights(table_only, [node], params)[0] > 0.5
+    # With the check off, the miss counted while it stood there (the phantom removal).
+    assert miss_weights(both, [node], ProjectionParams(absence_margin=0.0))[0] > 0.5
+    # A detection covering its place explains what stands there (another node's object: this
+    # node is a duplicate or a neighbour's), so the miss counts.
+    h, w = both.shape
+    covering = Detection("chair", (0.0, 0.0, float(w), float(h)), 0.9)
+    elsewhere = Detection("table", (0.0, 0.0, 2.0, 2.0), 0.9)
+    assert miss_weights(both, [node], params, [covering])[0] > 0.5
+    assert miss_weights(both, [node], params, [elsewhere]) == [0.0]
+
+
+def test_a_detection_on_a_wall_or_an_object_gone_from_against_the_wall_can_still_be_missed():
+    camera = Pose2D(-1.0, -1.5, 0.0)  # facing the room's east wall (x = 2.5), 3.5 m ahead
+    on_wall = Node(3, "chair", np.array([2.5, -1.5, 0.5]), 0.5, 1, 1)  # a false detection's node
+    by_wall = Node(4, "trash bin", np.array([2.42, -1.0, 0.3]), 0.3, 1, 1)  # a bin that stood against it
+    frame = render([], camera)
+    assert min(miss_weights(frame, [on_wall, by_wall], ProjectionParams())) > 0.5

@@ -25,6 +25,19 @@ of the camera, falling linearly to nothing at ``expect_range``. Any detector mis
 objects more often (fewer pixels, more depth noise); three far misses in a row happen to
 a present object, three near ones rarely.
 
+A miss also needs the node's place seen empty (``projection.absence_margin``, robust mode):
+the depth at the node's centre lies more than the margin beyond it (the camera sees past
+where the object stood), or whatever fills it rises to wall height. A chair seen only over
+the chair in front has its node's centre at the top of its back; the detector misses the
+barely visible chair frame after frame, and its misses removed it while it stood there
+(issue 17: 3 of 10 phantoms on two static Environment-A-size floors). The depth camera
+shows something at the node's place no higher than furniture, and nothing the detector
+found there, which is no evidence of absence. Two exceptions keep misses where they did
+their work before: a place one of the frame's detections covers is explained by that
+object (a second node on one table is a duplicate, removed by its misses as ever), and a
+false detection on a wall stays removable, since the wall fills its place and also the
+view 0.8 m above it, where no chair, table or bin reaches.
+
 The body is sampled at the node's centroid height: its centre and, when the node has a
 floor footprint, the footprint's corners pulled ``_INSET`` towards the middle (the true
 outline is noisy and a corner against a wall must not read as hidden by it).
@@ -38,11 +51,13 @@ import numpy as np
 
 from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.graph import Node
+from bomc_bt.perception.frames import Detection
 from bomc_bt.perception.projection import visible
 from bomc_bt.robot import RGBDFrame
 
 _INSET = 0.2  # share of the footprint's half-size the sampled corners lie inside it
 _FLAT_ASPECT = 3.0  # a footprint this many times longer than wide is a flat object's (a door leaf's)
+_WALL_ABOVE = 0.8  # m: above a node's centre, a surface this high up is a wall's, not furniture's
 
 
 def body_samples(node: Node) -> np.ndarray:
@@ -100,14 +115,63 @@ def edge_on(nodes: Sequence[Node], camera_xy: np.ndarray, limit_deg: float) -> n
     return out
 
 
-def miss_weights(frame: RGBDFrame, nodes: Sequence[Node], params: ProjectionParams) -> list[float]:
-    """Per expected node, how much its absence from this frame weighs (see the module docstring)."""
+def miss_weights(frame: RGBDFrame, nodes: Sequence[Node], params: ProjectionParams,
+                 detections: Sequence[Detection] = ()) -> list[float]:
+    """Per expected node, how much its absence from this frame weighs (see the module docstring).
+
+    ``detections`` are the frame's own: a place one of them covers is explained, not held.
+    """
     if not nodes:
         return []
     camera = frame.T_map_camera[:3, 3]
     xy = np.array([n.position[:2] for n in nodes], dtype=float)
     distance = np.hypot(xy[:, 0] - camera[0], xy[:, 1] - camera[1])
     span = params.expect_range - params.miss_full_range
-    if span <= 0.0:
-        return [1.0] * len(nodes)
-    return np.clip((params.expect_range - distance) / span, 0.0, 1.0).tolist()
+    weights = np.ones(len(nodes)) if span <= 0.0 else np.clip((params.expect_range - distance) / span, 0.0, 1.0)
+    if params.absence_margin > 0.0:
+        weights[place_held(frame, nodes, params.absence_margin, detections)] = 0.0
+    return weights.tolist()
+
+
+def place_held(frame: RGBDFrame, nodes: Sequence[Node], margin: float,
+               detections: Sequence[Detection] = ()) -> np.ndarray:
+    """Per node: the frame shows something furniture-high and undetected where the node stands.
+
+    Held: the depth at the node's centre is no more than ``margin`` beyond it, no detection
+    covers that pixel (a detected object there explains it: the node is a duplicate or a
+    neighbour's, and its miss counts as ever), and the view ``_WALL_ABOVE`` higher up is not
+    filled too (a wall would fill both). A point outside the image or without valid depth
+    holds nothing.
+    """
+    centres = np.array([n.position for n in nodes], dtype=float).reshape(-1, 3)
+    u, v, filled = _filled(frame, centres, margin)
+    for d in detections:
+        filled[filled] &= ~_covers(d, u[filled], v[filled])
+    _, _, wall = _filled(frame, centres + np.array([0.0, 0.0, _WALL_ABOVE]), margin)
+    return filled & ~wall
+
+
+def _filled(frame: RGBDFrame, points: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel columns and rows of map-frame ``points`` and, per point, whether it is inside the
+    image with valid depth no more than ``margin`` beyond it."""
+    T = frame.T_map_camera
+    cam = (points - T[:3, 3]) @ T[:3, :3]
+    z = cam[:, 2]
+    h, w = frame.shape
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.rint(frame.K[0, 0] * cam[:, 0] / z + frame.K[0, 2])
+        v = np.rint(frame.K[1, 1] * cam[:, 1] / z + frame.K[1, 2])
+    inside = (z > 0.0) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    u = np.where(inside, u, 0).astype(np.intp)
+    v = np.where(inside, v, 0).astype(np.intp)
+    with np.errstate(invalid="ignore"):
+        out = inside & (frame.depth[v, u] <= z + margin)  # NaN compares False
+    return u, v, out
+
+
+def _covers(detection: Detection, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Per pixel (column ``u``, row ``v``): inside the detection's mask, or its box without one."""
+    if detection.mask is not None:
+        return detection.mask[v, u]
+    x0, y0, x1, y1 = detection.box
+    return (u >= x0) & (u <= x1) & (v >= y0) & (v <= y1)
