@@ -9,7 +9,7 @@ import numpy as np
 
 from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.geometry import Pose2D
-from bomc_bt.graph import Node
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.perception.expected import edge_on, expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detection
@@ -91,3 +91,24 @@ def test_a_detection_on_a_wall_or_an_object_gone_from_against_the_wall_can_still
     by_wall = Node(4, "trash bin", np.array([2.42, -1.0, 0.3]), 0.3, 1, 1)  # a bin that stood against it
     frame = render([], camera)
     assert min(miss_weights(frame, [on_wall, by_wall], ProjectionParams())) > 0.5
+
+
+def test_an_undetected_chair_behind_a_table_keeps_its_node_pass_after_pass_until_it_is_taken_away():
+    camera = Pose2D(-3.0, -1.5, 0.0)  # 2.1 m from the chair: every miss would weigh fully
+    table = WorldObject("t", "table", (-1.5, -1.5, 0.375), (0.8, 1.6, 0.75), yaw=0.0)
+    params = ProjectionParams()
+
+    def changes_over_frames_without_a_detection(objects) -> list[tuple[str, int]]:
+        node = Node(0, "chair", np.array([-0.9, -1.5, 0.82]), 0.9, 1, 1, observations=20,
+                    footprint=np.array([-1.15, -1.75, -0.65, -1.25]))
+        graph = ObjectGraph(AssociationParams(), [node])
+        frame = render(objects, camera)
+        events = []
+        for k in range(30):  # 15 s of frames at 2 Hz, the detector finding nothing
+            expected = expected_nodes(frame, list(graph.nodes.values()), params)
+            weights = miss_weights(frame, expected, params)
+            events += graph.associate([], [n.id for n in expected], 2, 100.0 + 0.5 * k, miss_weights=weights)
+        return [(e.kind, e.node_id) for e in events]
+
+    assert changes_over_frames_without_a_detection([table, chair("b", -0.9)]) == []
+    assert changes_over_frames_without_a_detection([table]) == [("removed", 0)]
