@@ -91,6 +91,11 @@ def test_a_detection_on_a_wall_or_an_object_gone_from_against_the_wall_can_still
     by_wall = Node(4, "trash bin", np.array([2.42, -1.0, 0.3]), 0.3, 1, 1)  # a bin that stood against it
     frame = render([], camera)
     assert min(miss_weights(frame, [on_wall, by_wall], ProjectionParams())) > 0.5
+    # Nearer, the camera (tilted 15 degrees down) shows less of the wall above a high node:
+    # 2.4 m away only 0.5 m above it, 1 m away nothing above it. Either way the miss counts.
+    high = Node(5, "cabinet", np.array([2.5, -1.5, 0.88]), 0.5, 1, 1)
+    for x in (0.0, 1.4):
+        assert miss_weights(render([], Pose2D(x, -1.5, 0.0)), [high], ProjectionParams()) == [1.0]
 
 
 def test_an_undetected_chair_behind_a_table_keeps_its_node_pass_after_pass_until_it_is_taken_away():

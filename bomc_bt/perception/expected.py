@@ -36,7 +36,8 @@ found there, which is no evidence of absence. Two exceptions keep misses where t
 their work before: a place one of the frame's detections covers is explained by that
 object (a second node on one table is a duplicate, removed by its misses as ever), and a
 false detection on a wall stays removable, since the wall fills its place and also the
-view 0.8 m above it, where no chair, table or bin reaches.
+view 0.5-0.8 m above it, where no chair, table or bin reaches (a camera tilted down may
+not show that high above a near node; then the miss counts, as before).
 
 The body is sampled at the node's centroid height: its centre and, when the node has a
 floor footprint, the footprint's corners pulled ``_INSET`` towards the middle (the true
@@ -57,7 +58,9 @@ from bomc_bt.robot import RGBDFrame
 
 _INSET = 0.2  # share of the footprint's half-size the sampled corners lie inside it
 _FLAT_ASPECT = 3.0  # a footprint this many times longer than wide is a flat object's (a door leaf's)
-_WALL_ABOVE = 0.8  # m: above a node's centre, a surface this high up is a wall's, not furniture's
+# m: above a node's centre, a surface this high up is a wall's, not furniture's; the highest
+# of these rises the image shows is looked at (a camera tilted down shows less above near nodes)
+_WALL_RISES = (0.8, 0.65, 0.5)
 
 
 def body_samples(node: Node) -> np.ndarray:
@@ -139,21 +142,29 @@ def place_held(frame: RGBDFrame, nodes: Sequence[Node], margin: float,
 
     Held: the depth at the node's centre is no more than ``margin`` beyond it, no detection
     covers that pixel (a detected object there explains it: the node is a duplicate or a
-    neighbour's, and its miss counts as ever), and the view ``_WALL_ABOVE`` higher up is not
-    filled too (a wall would fill both). A point outside the image or without valid depth
-    holds nothing.
+    neighbour's, and its miss counts as ever), and the view above it is not filled too (a
+    wall would fill both): the highest of ``_WALL_RISES`` above the centre that the image
+    shows must be seen past. When none of them is in the image, nothing is held (the wall
+    test cannot be made). A point without valid depth holds nothing.
     """
     centres = np.array([n.position for n in nodes], dtype=float).reshape(-1, 3)
-    u, v, filled = _filled(frame, centres, margin)
+    u, v, _, filled = _filled(frame, centres, margin)
     for d in detections:
         filled[filled] &= ~_covers(d, u[filled], v[filled])
-    _, _, wall = _filled(frame, centres + np.array([0.0, 0.0, _WALL_ABOVE]), margin)
-    return filled & ~wall
+    judged = np.zeros(len(centres), dtype=bool)
+    clear_above = np.zeros(len(centres), dtype=bool)
+    for rise in _WALL_RISES:
+        _, _, inside, wall = _filled(frame, centres + np.array([0.0, 0.0, rise]), margin)
+        pick = inside & ~judged
+        clear_above[pick] = ~wall[pick]
+        judged |= inside
+    return filled & clear_above
 
 
-def _filled(frame: RGBDFrame, points: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel columns and rows of map-frame ``points`` and, per point, whether it is inside the
-    image with valid depth no more than ``margin`` beyond it."""
+def _filled(frame: RGBDFrame, points: np.ndarray,
+            margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel columns and rows of map-frame ``points``, whether each is inside the image, and
+    whether its pixel has valid depth no more than ``margin`` beyond it."""
     T = frame.T_map_camera
     cam = (points - T[:3, 3]) @ T[:3, :3]
     z = cam[:, 2]
@@ -166,7 +177,7 @@ def _filled(frame: RGBDFrame, points: np.ndarray, margin: float) -> tuple[np.nda
     v = np.where(inside, v, 0).astype(np.intp)
     with np.errstate(invalid="ignore"):
         out = inside & (frame.depth[v, u] <= z + margin)  # NaN compares False
-    return u, v, out
+    return u, v, inside, out
 
 
 def _covers(detection: Detection, u: np.ndarray, v: np.ndarray) -> np.ndarray:
