@@ -300,7 +300,7 @@ class ProjectionParams:
     expect_edge_on_deg: float = 90.0
     # [m] robust: a miss counts only where the depth camera sees the node's place empty -- more
     # than this beyond the node's centre, or a wall-high surface there. Something no higher
-    # than furniture standing where the node is (a chair seen only over the chair in front,
+    # than furniture standing where the node is (a chair seen only over the table in front,
     # which any detector misses) is no evidence of its absence. 0: off, every miss counts
     absence_margin: float = 0.1
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the

@@ -28,7 +28,7 @@ a present object, three near ones rarely.
 A miss also needs the node's place seen empty (``projection.absence_margin``, robust mode):
 the depth at the node's centre lies more than the margin beyond it (the camera sees past
 where the object stood), or whatever fills it rises to wall height. A chair seen only over
-the chair in front has its node's centre at the top of its back; the detector misses the
+the table in front has its node's centre at the top of its back; the detector misses the
 barely visible chair frame after frame, and its misses removed it while it stood there
 (issue 17: 3 of 10 phantoms on two static Environment-A-size floors). The depth camera
 shows something at the node's place no higher than furniture, and nothing the detector
@@ -53,7 +53,7 @@ import numpy as np
 from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.graph import Node
 from bomc_bt.perception.frames import Detection
-from bomc_bt.perception.projection import visible
+from bomc_bt.perception.projection import pixels, visible
 from bomc_bt.robot import RGBDFrame
 
 _INSET = 0.2  # share of the footprint's half-size the sampled corners lie inside it
@@ -165,16 +165,7 @@ def _filled(frame: RGBDFrame, points: np.ndarray,
             margin: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Pixel columns and rows of map-frame ``points``, whether each is inside the image, and
     whether its pixel has valid depth no more than ``margin`` beyond it."""
-    T = frame.T_map_camera
-    cam = (points - T[:3, 3]) @ T[:3, :3]
-    z = cam[:, 2]
-    h, w = frame.shape
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = np.rint(frame.K[0, 0] * cam[:, 0] / z + frame.K[0, 2])
-        v = np.rint(frame.K[1, 1] * cam[:, 1] / z + frame.K[1, 2])
-    inside = (z > 0.0) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
-    u = np.where(inside, u, 0).astype(np.intp)
-    v = np.where(inside, v, 0).astype(np.intp)
+    u, v, z, inside = pixels(frame, points)
     with np.errstate(invalid="ignore"):
         out = inside & (frame.depth[v, u] <= z + margin)  # NaN compares False
     return u, v, inside, out

@@ -268,23 +268,33 @@ def visible(frame: RGBDFrame, positions: np.ndarray, margin: float = 0.3,
     pts = np.asarray(positions, dtype=float).reshape(-1, 3)
     if len(pts) == 0:
         return np.zeros(0, dtype=bool)
-    T = frame.T_map_camera
-    cam = (pts - T[:3, 3]) @ T[:3, :3]
-    z = cam[:, 2]
+    u, v, z, inside = pixels(frame, pts)
     lo, hi = frame.depth_range
     if max_depth is not None:
         hi = min(hi, max_depth)
+    inside &= (z >= lo) & (z <= hi)
+    out = np.zeros(len(pts), dtype=bool)
+    idx = np.flatnonzero(inside)
+    measured = frame.depth[v[idx], u[idx]]
+    with np.errstate(invalid="ignore"):
+        out[idx] = measured >= z[idx] - margin  # NaN compares False
+    return out
+
+
+def pixels(frame: RGBDFrame, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where map-frame ``points`` (n, 3) fall in the frame: pixel columns and rows (0 where
+    outside), depths along the optical axis, and whether each is in front and inside the image."""
+    T = frame.T_map_camera
+    cam = (points - T[:3, 3]) @ T[:3, :3]
+    z = cam[:, 2]
     h, w = frame.shape
     with np.errstate(divide="ignore", invalid="ignore"):
         u = np.rint(frame.K[0, 0] * cam[:, 0] / z + frame.K[0, 2])
         v = np.rint(frame.K[1, 1] * cam[:, 1] / z + frame.K[1, 2])
-    inside = (z >= lo) & (z <= hi) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
-    out = np.zeros(len(pts), dtype=bool)
-    idx = np.flatnonzero(inside)
-    measured = frame.depth[v[idx].astype(np.intp), u[idx].astype(np.intp)]
-    with np.errstate(invalid="ignore"):
-        out[idx] = measured >= z[idx] - margin  # NaN compares False
-    return out
+    inside = (z > 0.0) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+    u = np.where(inside, u, 0).astype(np.intp)
+    v = np.where(inside, v, 0).astype(np.intp)
+    return u, v, z, inside
 
 
 def _signed_area(polygon: np.ndarray) -> float:
