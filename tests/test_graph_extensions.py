@@ -53,6 +53,20 @@ def test_a_hidden_duplicate_inside_the_observed_object_is_folded_in():
     assert g.nodes[0].observations == 13  # 10 + 1 match + 2 folded in
 
 
+def test_a_far_view_between_two_hidden_neighbours_does_not_fold_them():
+    # two cabinets 1.0 m apart; a view from afar (no floor box) centres between them, within
+    # delta_c of both: it matches node 0, node 1 is hidden behind it. One object does not
+    # reach 1.0 m, so the view is no evidence that the two are one.
+    g = ObjectGraph(AssociationParams(), [node(0, "cabinet", 0.0, 0.0, seen=5), node(1, "cabinet", 1.0, 0.0, seen=9)])
+    events = g.associate([obs("cabinet", 0.45, 0.0)], [0], 2, 5.0, in_view=[0, 1])
+    assert set(g.nodes) == {0, 1}
+    assert "removed" not in [e.kind for e in events]
+    # the same view beside two nodes that one object does reach (0.6 m apart) folds them
+    close = ObjectGraph(AssociationParams(), [node(0, "cabinet", 0.0, 0.0, seen=5), node(1, "cabinet", 0.6, 0.0)])
+    close.associate([obs("cabinet", 0.25, 0.0)], [0], 2, 5.0, in_view=[0, 1])
+    assert set(close.nodes) == {0}
+
+
 def test_an_expected_neighbour_is_not_merged_but_counted_as_missed():
     g = ObjectGraph(AssociationParams(), [node(0, "chair", 0.0, 0.0), node(1, "chair", 0.6, 0.0)])
     g.associate([obs("chair", 0.0, 0.0)], [0, 1], 1, 0.0, in_view=[0, 1])

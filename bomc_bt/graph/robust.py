@@ -204,9 +204,10 @@ class RobustPolicy:
             if vid in matched and j not in best.values() and vid not in best:
                 best[vid] = j
         for vid, j in best.items():
-            o = obs[j]
-            covered = set(self.extents.overlapped(graph, o))
-            covered |= {v.id for v, _ in graph.within(o.category, o.position, self.gate(o)) if v.id in hidden}
+            o, matched_node = obs[j], graph.nodes.get(vid)
+            if matched_node is None:  # folded into another node earlier in this loop
+                continue
+            covered = set(self.extents.overlapped(graph, o)) | self._hidden_beside(graph, matched_node, o, hidden)
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
                 if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o) \
@@ -222,6 +223,16 @@ class RobustPolicy:
                 events.append(graph.report("updated", keep, session, stamp))
                 matched.add(keep.id)
         return events
+
+    def _hidden_beside(self, graph: ObjectGraph, v: Node, o: Observation, hidden: set[int]) -> set[int]:
+        """Hidden nodes that ``o`` (matched by ``v``) may be the same object as: within
+        ``o``'s gate of the view *and* of ``v``. A view between two nodes farther apart than
+        one object reaches is no evidence they are one: lab-b's two cabinets, 1.2 m apart,
+        were folded into one by a view from beyond ``box_range`` (no floor box to tell them
+        apart) whose centre fell between them."""
+        gate = self.gate(o)
+        return {w.id for w, _ in graph.within(o.category, o.position, gate)
+                if w.id in hidden and np.linalg.norm((w.position - v.position) * graph.index.scale) <= gate}
 
     def _refresh(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float,
                  restart: bool | None = None, extend: bool = False) -> list[Event]:
