@@ -65,6 +65,11 @@ def test_a_far_view_between_two_hidden_neighbours_does_not_fold_them():
     close = ObjectGraph(AssociationParams(), [node(0, "cabinet", 0.0, 0.0, seen=5), node(1, "cabinet", 0.6, 0.0)])
     close.associate([obs("cabinet", 0.25, 0.0)], [0], 2, 5.0, in_view=[0, 1])
     assert set(close.nodes) == {0}
+    # a node this pass started (a sliver seen once) is judged by this pass's frames alone
+    sliver = Node(1, "cabinet", np.array([1.0, 0.0, 0.4]), 0.9, 2, 2, observations=1)
+    fresh = ObjectGraph(AssociationParams(), [node(0, "cabinet", 0.0, 0.0, seen=5), sliver])
+    fresh.associate([obs("cabinet", 0.45, 0.0)], [0], 2, 5.0, in_view=[0, 1])
+    assert set(fresh.nodes) == {0}
 
 
 def test_an_expected_neighbour_is_not_merged_but_counted_as_missed():

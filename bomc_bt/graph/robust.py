@@ -207,7 +207,8 @@ class RobustPolicy:
             o, matched_node = obs[j], graph.nodes.get(vid)
             if matched_node is None:  # folded into another node earlier in this loop
                 continue
-            covered = set(self.extents.overlapped(graph, o)) | self._hidden_beside(graph, matched_node, o, hidden)
+            covered = set(self.extents.overlapped(graph, o))
+            covered |= self._hidden_beside(graph, matched_node, o, hidden, session)
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
                 if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o) \
@@ -224,15 +225,24 @@ class RobustPolicy:
                 matched.add(keep.id)
         return events
 
-    def _hidden_beside(self, graph: ObjectGraph, v: Node, o: Observation, hidden: set[int]) -> set[int]:
-        """Hidden nodes that ``o`` (matched by ``v``) may be the same object as: within
-        ``o``'s gate of the view *and* of ``v``. A view between two nodes farther apart than
-        one object reaches is no evidence they are one: lab-b's two cabinets, 1.2 m apart,
-        were folded into one by a view from beyond ``box_range`` (no floor box to tell them
-        apart) whose centre fell between them."""
+    def _hidden_beside(self, graph: ObjectGraph, v: Node, o: Observation, hidden: set[int],
+                       session: int) -> set[int]:
+        """Hidden nodes within ``o``'s gate that ``o`` (matched by ``v``) may show to be ``v``'s
+        object. Two nodes that both an earlier pass kept apart must also lie within that gate
+        of each other: a view between two nodes farther apart than one object reaches is no
+        evidence they are one (lab-b's two cabinets, 1.0 m apart, were folded into one by a
+        view from beyond ``box_range``, with no floor box to tell them apart, whose centre
+        fell between them). A node this pass started is judged by this pass's frames alone
+        (a door's sliver seen once 0.8 m from the door's node still folds into it)."""
         gate = self.gate(o)
-        return {w.id for w, _ in graph.within(o.category, o.position, gate)
-                if w.id in hidden and np.linalg.norm((w.position - v.position) * graph.index.scale) <= gate}
+        out = set()
+        for w, _ in graph.within(o.category, o.position, gate):
+            if w.id not in hidden:
+                continue
+            older = w.first_session < session and v.first_session < session
+            if not older or np.linalg.norm((w.position - v.position) * graph.index.scale) <= gate:
+                out.add(w.id)
+        return out
 
     def _refresh(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float,
                  restart: bool | None = None, extend: bool = False) -> list[Event]:
