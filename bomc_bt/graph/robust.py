@@ -64,6 +64,7 @@ import numpy as np
 from bomc_bt.graph.association import near_any
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
+from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
 from bomc_bt.graph.relocations import relocation_pairs
@@ -240,7 +241,8 @@ class RobustPolicy:
             if w.id not in hidden:
                 continue
             older = w.first_session < session and v.first_session < session
-            if not older or np.linalg.norm((w.position - v.position) * graph.index.scale) <= gate:
+            scale = graph.index.scale
+            if not older or dist2_scalar(w.position * scale, v.position * scale) <= gate * gate:
                 out.add(w.id)
         return out
 
