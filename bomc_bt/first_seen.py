@@ -81,6 +81,10 @@ class SeenBefore:
         out[inside] = (self.seen if mask is None else mask)[rows[inside], cols[inside]]
         return out
 
+    def never_looked(self, position: np.ndarray) -> bool:
+        """Whether no earlier pass saw the place at ``position`` (x, y[, z])."""
+        return not bool(self.saw(np.asarray(position, dtype=float)[:2])[0])
+
     def mark(self, events: list[Event]) -> int:
         """Mark as first seen the ``added`` events at places no earlier pass saw, and those
         where the previous pass detected an object of their category; how many."""

@@ -318,6 +318,8 @@ seen before it is written. With a store, every frame
         self.coverage = Coverage(grid, self.near_range)
         self.looked = Coverage(grid)
         self.sightings = Sightings(grid)
+        if self.seen_before is not None:  # a place new to the map is no moved object's new place
+            self.graph.never_looked = self.seen_before.never_looked
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)

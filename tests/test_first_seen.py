@@ -61,6 +61,24 @@ def test_an_addition_beyond_the_floor_earlier_passes_saw_is_first_seen_within_th
     assert marked == [3, 4]  # beyond the margin and off the map; not a move, whatever its end
 
 
+def test_never_looked_is_the_floor_no_earlier_pass_saw_and_perception_hands_it_to_the_graph():
+    """What the robust policy asks before it takes an object for a removed one's new place
+    (:func:`bomc_bt.graph.robust._never_looked`): the same mask the marking uses."""
+    from bomc_bt.graph import AssociationParams, ObjectGraph
+    from bomc_bt.monitoring import Perception
+    from bomc_bt.perception.projection import ProjectionParams
+
+    grid = grid_10m()
+    seen = SeenBefore(grid, inflate_mask(left_half(grid).astype(bool), 0.3 / grid.resolution))
+    assert not seen.never_looked(np.array([2.0, 5.0, 0.4])) and not seen.never_looked(np.array([5.2, 5.0]))
+    assert seen.never_looked(np.array([8.0, 5.0])) and seen.never_looked(np.array([50.0, 5.0]))
+    graph = ObjectGraph(AssociationParams())
+    Perception(None, None, [], ProjectionParams(), graph, None, 2, grid, seen_before=seen)
+    assert graph.never_looked(np.array([8.0, 5.0])) and not graph.never_looked(np.array([2.0, 5.0]))
+    Perception(None, None, [], ProjectionParams(), other := ObjectGraph(AssociationParams()), None, 2, grid)
+    assert other.never_looked is None  # nothing known: every place counts as looked at
+
+
 def test_net_changes_lists_first_seen_nodes_apart_and_evaluation_does_not_score_them():
     session_1 = [added(0, 1.0, session=1)]
     new_place, old_place = added(1, 8.0), added(2, 2.0)

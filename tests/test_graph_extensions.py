@@ -241,3 +241,33 @@ def test_a_frame_that_confirms_an_objects_absence_and_expects_its_new_place_too_
             break
     assert set(g.nodes) == {0} and np.allclose(g.nodes[0].position[:2], [2.0, 0.0])
     assert "moved" in [e.kind for e in events if e.node_id == 0]
+
+
+def test_a_chair_first_seen_where_no_pass_looked_is_no_new_place_of_a_removed_neighbour():
+    """A chair taken from a table while its neighbour, 1.3 m away, is seen for the first time
+    (no earlier pass looked there): the old node is removed and the neighbour stays a node of
+    its own, in either order. Where an earlier pass looked, the same chair is a move; within
+    the old node's gate it is the old chair seen again, wherever it stands (after its removal)."""
+    def run(never_looked, x: float, arrival_first: bool) -> tuple[list[str], set[int]]:
+        g = ObjectGraph(AssociationParams(confirm_misses=1, confirm_detections=1),
+                        [node(0, "chair", 0.0, 0.0, seen=20)])
+        g.never_looked = never_looked
+        kinds = []
+        if arrival_first:
+            kinds += [e.kind for e in g.associate([obs("chair", x, 0.0)], [], 2, 0.0)]
+        for k in range(1, 30):  # the old chair expected and not seen until its absence is confirmed
+            kinds += [e.kind for e in g.associate([], [0], 2, float(k))]
+            if {"moved", "removed"} & set(kinds):
+                break
+        if not arrival_first:
+            kinds += [e.kind for e in g.associate([obs("chair", x, 0.0)], [], 2, 40.0)]
+        return kinds, set(g.nodes)
+
+    unseen = lambda p: p[0] > 1.0  # noqa: E731 - only the neighbour's side was never looked at
+    for arrival_first in (True, False):
+        kinds, nodes = run(unseen, 1.3, arrival_first)
+        assert "moved" not in kinds and "removed" in kinds and 0 not in nodes and len(nodes) == 1
+        kinds, nodes = run(lambda p: False, 1.3, arrival_first)
+        assert "moved" in kinds and nodes == {0}
+    kinds, nodes = run(lambda p: True, 0.4, False)  # within the gate: the chair itself, seen again
+    assert kinds[-1] == "moved" and nodes == {0}

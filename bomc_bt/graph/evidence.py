@@ -5,7 +5,7 @@ expected the node saw it, how much miss weight piled up before the current run o
 and the weight of that run. A miss weighs 1 when the frame had a clear, near view of the
 node and less farther away (see :func:`bomc_bt.perception.expected.miss_weights`); a
 detection ends the run and adds it to the node's record of misses. Robust association
-(:meth:`bomc_bt.graph.robust.RobustPolicy.misses_needed`) compares the run with what the
+(:func:`misses_needed`) compares the run with what the
 node's own detection rate makes convincing.
 """
 
@@ -60,3 +60,18 @@ class MissEvidence:
         ``weight`` frames' worth of ``prior``: the rate a present object would show."""
         r = self._records.get(node_id, DetectionRecord())
         return (r.seen + prior * weight) / (r.seen + r.missed + weight)
+
+
+def misses_needed(rate: float, prior: float, confirm_misses: int, max_misses: int) -> int:
+    """Consecutive counted misses that remove a node detected in a share ``rate`` of the
+    frames that expected it: ``confirm_misses`` for one detected as often as ``prior`` says,
+    more for one those frames often missed (a door leaf seen through its doorway, an object
+    at the edge of the camera's reach). A present object detected in a share p of the
+    frames is missed k times in a row with probability (1 - p)^k; k is chosen so that this
+    chance is no larger than at the prior rate with ``confirm_misses`` (at most ``max_misses``)."""
+    if rate >= prior:
+        return confirm_misses
+    if rate <= 0.0:
+        return max_misses
+    need = math.ceil(confirm_misses * math.log(1.0 - prior) / math.log(1.0 - rate) - 1e-9)
+    return int(min(max(confirm_misses, need), max_misses))

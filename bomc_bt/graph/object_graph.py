@@ -51,6 +51,10 @@ class ObjectGraph:
         self._changed: dict[int, Node] = {}
         self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
         self.evidence = MissEvidence()  # robust: what the frames that expected each node showed
+        # position -> whether no earlier pass looked there (bomc_bt.first_seen): an object found
+        # there beyond a node's gate was most likely always there, so the robust policy takes
+        # it for no removed object's new place. None: nothing known.
+        self.never_looked: Callable[[np.ndarray], bool] | None = None
         max_id = -1
         for node in nodes:
             max_id = max(max_id, node.id)

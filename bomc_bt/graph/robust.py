@@ -37,7 +37,8 @@
   Identity across a relocation is what lets a user ask "where did chair 12 go?". The
   other order too: when an older node's absence is confirmed and a node of its category
   new in this session stands within ``move_radius``, that node is folded into the old
-  one, which moves there (the robot saw the chair's new place before its old one).
+  one, which moves there (the robot saw the chair's new place before its old one). Neither
+  way beyond delta_c to a place no earlier pass looked at: that object was always there.
   A wrong guess costs little: the object left behind gets a new id when it is seen.
 * *Retract, not remove, what was barely seen.* A node matched in at most
   ``retract_observations`` frames in all (by default: never matched again after the two
@@ -63,6 +64,7 @@ import numpy as np
 
 from bomc_bt.graph.association import near_any
 from bomc_bt.graph.co_observed import CoObserved
+from bomc_bt.graph.evidence import misses_needed
 from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.parts import part_pairs, reference_lengths
@@ -278,11 +280,13 @@ class RobustPolicy:
     def _arrival(self, graph: ObjectGraph, v: Node, session: int) -> Node | None:
         """A node of ``v``'s category new in this session, within ``move_radius`` of the
         older ``v`` whose absence is now confirmed: most likely ``v``'s object, moved, seen
-        at its new place before its old place was checked (nearest, then lowest id)."""
+        at its new place before its old place was checked (nearest, then lowest id). Beyond
+        ``v``'s own gate, not a node at a place no earlier pass looked: likely always there."""
         if v.first_session >= session:
             return None
+        gate = self.params.distance(v.category)
         near = [(d, n.id, n) for n, d in graph.within(v.category, v.position, self.params.move_radius)
-                if n.id != v.id and n.first_session == session]
+                if n.id != v.id and n.first_session == session and (d <= gate or not _never_looked(graph, n))]
         return min(near, key=lambda t: t[:2])[2] if near else None
 
     def _moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
@@ -355,32 +359,25 @@ class RobustPolicy:
         return events
 
     def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
-        """Consecutive counted misses that remove ``v``: ``confirm_misses`` for an object
-        detected as often as ``detection_prior`` says, more for one that the frames which
-        expected it often missed (a door leaf seen through its doorway, an object at the
-        edge of the camera's reach). A present object detected in a share p of the frames
-        is missed k times in a row with probability (1 - p)^k; k is chosen so that this
-        chance is no larger than at the prior rate with ``confirm_misses`` (at most ``max_misses``)."""
+        """Consecutive counted misses that remove ``v`` (:func:`~bomc_bt.graph.evidence.misses_needed`
+        at ``v``'s own detection rate)."""
         p = self.params
         rate = graph.evidence.detection_rate(v.id, p.detection_prior, p.detection_prior_weight)
-        if rate >= p.detection_prior:
-            return p.confirm_misses
-        if rate <= 0.0:
-            return p.max_misses
-        need = math.ceil(p.confirm_misses * math.log(1.0 - p.detection_prior) / math.log(1.0 - rate) - 1e-9)
-        return int(min(max(p.confirm_misses, need), p.max_misses))
+        return misses_needed(rate, p.detection_prior, p.confirm_misses, p.max_misses)
 
     def _move_candidate(self, graph: ObjectGraph, o: Observation) -> Node | None:
-        """Nearest same-category node removed this session, within move_radius. (A node with
-        only some misses is no candidate: one missed frame let a neighbouring chair, seen
-        for the first time, take its id. Its absence confirmed, :meth:`_arrival` still makes
-        it a move.)"""
+        """Nearest same-category node removed this session, within move_radius (beyond ``o``'s
+        gate, none where no earlier pass looked). A node with only some misses is no
+        candidate: one missed frame let a neighbouring chair, seen for the first time, take
+        its id. Its absence confirmed, :meth:`_arrival` still makes it a move."""
+        fresh = _never_looked(graph, o)
         best: tuple[float, int, Node] | None = None
         for v in graph.removed_this_session():
             if v.category != o.category:
                 continue
             d = float(np.linalg.norm((v.position - o.position) * graph.index.scale))
-            if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]):
+            if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]) \
+                    and not (fresh and d > self.gate(o)):
                 best = (d, v.id, v)
         return None if best is None else best[2]
 
@@ -396,3 +393,8 @@ class RobustPolicy:
         graph.set_confidence(v, float(o.confidence))
         graph.touch(v, session, stamp)
         return graph.report("moved", v, session, stamp, previous)
+
+
+def _never_looked(graph: ObjectGraph, at: Node | Observation) -> bool:
+    """Whether no earlier pass looked where ``at`` stands (``ObjectGraph.never_looked``)."""
+    return graph.never_looked is not None and graph.never_looked(at.position)
