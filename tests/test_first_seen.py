@@ -10,11 +10,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.change_evaluation import reported_changes, score_changes, true_changes
 from bomc_bt.errors import BomcError
 from bomc_bt.first_seen import FIRST_SEEN, SeenBefore, load_seen_before, previous_sightings, saved_coverage
-from bomc_bt.graph import Event
+from bomc_bt.graph import AssociationParams, Event, ObjectGraph
 from bomc_bt.grid import OccupancyGrid, inflate_mask
+from bomc_bt.monitoring import Perception
 from bomc_bt.net_changes import net_changes, summarize
 from bomc_bt.pass_resume import coverage_key, looked_key, pack_mask
 from bomc_bt.store import SiteStore
@@ -64,10 +66,6 @@ def test_an_addition_beyond_the_floor_earlier_passes_saw_is_first_seen_within_th
 def test_never_looked_is_the_floor_no_earlier_pass_saw_and_perception_hands_it_to_the_graph():
     """What the robust policy asks before it takes an object for a removed one's new place
     (:func:`bomc_bt.graph.robust._never_looked`): the same mask the marking uses."""
-    from bomc_bt.graph import AssociationParams, ObjectGraph
-    from bomc_bt.monitoring import Perception
-    from bomc_bt.perception.projection import ProjectionParams
-
     grid = grid_10m()
     seen = SeenBefore(grid, inflate_mask(left_half(grid).astype(bool), 0.3 / grid.resolution))
     assert not seen.never_looked(np.array([2.0, 5.0, 0.4])) and not seen.never_looked(np.array([5.2, 5.0]))

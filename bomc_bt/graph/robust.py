@@ -237,13 +237,12 @@ class RobustPolicy:
         view from beyond ``box_range``, with no floor box to tell them apart, whose centre
         fell between them). A node this pass started is judged by this pass's frames alone
         (a door's sliver seen once 0.8 m from the door's node still folds into it)."""
-        gate = self.gate(o)
+        gate, scale = self.gate(o), graph.index.scale
         out = set()
         for w, _ in graph.within(o.category, o.position, gate):
             if w.id not in hidden:
                 continue
             older = w.first_session < session and v.first_session < session
-            scale = graph.index.scale
             if not older or dist2_scalar(w.position * scale, v.position * scale) <= gate * gate:
                 out.add(w.id)
         return out
