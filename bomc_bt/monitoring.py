@@ -66,8 +66,10 @@ class TraversalState:
         """How many entries ``phase`` added (0 if not planned)."""
         if phase not in self.phases:
             return 0
-        later = [i for i in self.phases.values() if i > self.phases[phase]]
-        return min(later, default=len(self.states)) - self.phases[phase]
+        names = list(self.phases)  # in the order they were added: an empty phase shares its start
+        k = names.index(phase)
+        end = self.phases[names[k + 1]] if k + 1 < len(names) else len(self.states)
+        return end - self.phases[phase]
 
     def __post_init__(self) -> None:
         if not self.states:

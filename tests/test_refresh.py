@@ -146,3 +146,16 @@ def test_a_pass_saved_before_refresh_stops_existed_resumes():
     state = TraversalState(plan)
     state.restore({"states": [VISITED, VISITED, PENDING], "index": 2, "retried": [], "gaps_from": 2})
     assert state.gaps_from == 2 and not state.planned(REFRESH) and state.next() == 2
+
+
+def test_an_empty_gap_phase_does_not_count_the_refresh_stops_after_it():
+    """A pass that found no gap to cover but went back to two stale nodes reports 0 gap
+    viewpoints and 2 refresh stops (it reported 2 and 2), also after a resume."""
+    plan = TraversalPlan([Pose2D(0, 0, 0), Pose2D(3, 0, 0)], 3.0)
+    state = TraversalState(plan)
+    state.add_viewpoints(GAPS, [])
+    state.add_viewpoints(REFRESH, [Pose2D(0, 1, 0.0), Pose2D(3, 1, 0.0)])
+    resumed = TraversalState(TraversalPlan.from_json(plan.to_json()))
+    resumed.restore(state.to_json())
+    for s in (state, resumed):
+        assert (s.summary()["gap_viewpoints"], s.summary()["refresh_stops"]) == (0, 2)
