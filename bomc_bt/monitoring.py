@@ -31,6 +31,7 @@ from bomc_bt.traversal import TraversalPlan
 
 PENDING, VISITED, DETOURED, MISSED = "pending", "visited", "detoured", "missed"
 GAPS, REFRESH = "gaps", "refresh"  # phases a pass adds to its plan after the waypoints
+PHASE_ORDER = (GAPS, REFRESH)  # the order the pass adds them in (trees/traverse.yaml)
 
 
 @dataclass
@@ -66,7 +67,8 @@ class TraversalState:
         """How many entries ``phase`` added (0 if not planned)."""
         if phase not in self.phases:
             return 0
-        names = list(self.phases)  # in the order they were added: an empty phase shares its start
+        # in the order the pass adds them: an empty phase shares its start with the next one
+        names = sorted(self.phases, key=lambda n: (self.phases[n], PHASE_ORDER.index(n) if n in PHASE_ORDER else 0))
         k = names.index(phase)
         end = self.phases[names[k + 1]] if k + 1 < len(names) else len(self.states)
         return end - self.phases[phase]

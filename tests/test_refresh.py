@@ -157,5 +157,7 @@ def test_an_empty_gap_phase_does_not_count_the_refresh_stops_after_it():
     state.add_viewpoints(REFRESH, [Pose2D(0, 1, 0.0), Pose2D(3, 1, 0.0)])
     resumed = TraversalState(TraversalPlan.from_json(plan.to_json()))
     resumed.restore(state.to_json())
-    for s in (state, resumed):
+    shuffled = TraversalState(TraversalPlan.from_json(plan.to_json()))  # a saved pass read back in any key order
+    shuffled.restore({**state.to_json(), "phases": {REFRESH: 2, GAPS: 2}})
+    for s in (state, resumed, shuffled):
         assert (s.summary()["gap_viewpoints"], s.summary()["refresh_stops"]) == (0, 2)
