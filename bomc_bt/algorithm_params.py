@@ -245,7 +245,9 @@ class BudgetParams:
     # [-] a budget at most this share short of a typical full pass (the median of the last
     # three) runs the full pass: full passes vary by about this much from one to the next
     full_tolerance: float = 0.1
-    max_stops: int = 60  # [count] candidate stops the tour is planned over (those that see most value)
+    # [count] candidate stops the tour is planned over first (those that see most value); a tour that
+    # visits them all with a tenth of the budget left is planned again over twice as many, up to 1000
+    max_stops: int = 60
     # [m] how far a stop is counted to see the floor it is valued for (near enough to detect
     # and confirm objects from a few looks); 0: the camera's planned reach (projection.expect_range)
     view_range: float = 3.0

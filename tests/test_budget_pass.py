@@ -6,12 +6,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 import urllib.request
 from pathlib import Path
 
 import pytest
 from test_cli import assert_user_error, bomc
 
+from bomc_bt.budget_pass import MAX_SHORTLIST, budget_outgrows_shortlist
 from bomc_bt.viewer.server import serve_site
 
 
@@ -73,3 +75,29 @@ def test_a_budgeted_pass_keeps_its_budget_comes_home_and_reports_what_it_skipped
     waits = {(r["x"], r["y"]): r for r in model["regions"]}
     assert all(waits[xy]["passes_since"] >= 2 for xy in stale if xy in waits)
     assert model["max_waiting"] > 0
+
+
+def test_a_budget_that_affords_more_than_max_stops_places_is_planned_over_more(mapped_site, tmp_path):
+    """budget.max_stops is where the tour starts, not a ceiling on what a long budget buys:
+    on a 93 x 90 m floor a budget as long as the build stopped after 60 stops, 38 % of it."""
+    world, site = mapped_site
+    copy = tmp_path / "site"
+    shutil.copytree(site, copy)
+    session = max(int(p.name) for p in (copy / "sessions").iterdir()) + 1
+    full = json.loads((site / "sessions" / "1" / "report.json").read_text())
+    few = tmp_path / "few.yaml"
+    few.write_text("budget:\n  max_stops: 1\n")
+    result = bomc("monitor", "--world", str(world), "--site", str(copy), "--session", str(session), "--quiet",
+                  "--config", str(few), "--budget", str(round(0.8 * full["sim_time_s"], 1)))
+    assert result.returncode == 0, result.stderr
+    b = json.loads((copy / "sessions" / str(session) / "report.json").read_text())["budget"]
+    assert not b["full_pass"]
+    assert b["stops_total"] > 1 and b["stops"] > 1, b
+
+
+def test_the_shortlist_grows_only_when_the_tour_exhausts_it_with_time_to_spare():
+    assert budget_outgrows_shortlist(60, 60, 60, planned_s=2866.0, available_s=5644.0)
+    assert not budget_outgrows_shortlist(59, 60, 60, planned_s=2767.0, available_s=5644.0)  # a place left out
+    assert not budget_outgrows_shortlist(60, 60, 60, planned_s=5500.0, available_s=5644.0)  # the budget is spent
+    assert not budget_outgrows_shortlist(40, 40, 60, planned_s=100.0, available_s=5644.0)  # nothing more to see
+    assert not budget_outgrows_shortlist(MAX_SHORTLIST, MAX_SHORTLIST, MAX_SHORTLIST, 1.0, 1e6)
