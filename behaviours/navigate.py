@@ -59,7 +59,18 @@ class NavigateTo(ActionLeaf):
         self.set("nav_detour", False)
         self.time_left = None if ctx.budget is None or ctx.traverse is None else drive_time_left(
             ctx.budget, ctx.now() - ctx.budget.started, ctx.traverse.current)
+        self.start_home_m = self._home_m(pose) if self.time_left is not None else math.inf
         return handle
+
+    def _home_m(self, pose: Pose2D | None) -> float:
+        """The saved map's way from ``pose`` to the dock, reckoned longer by the pass's
+        detours so far (:attr:`PassBudget.detour`); inf where unknown."""
+        ctx = self.context
+        if pose is None or ctx.dock is None or ctx.map_planner is None:
+            return math.inf
+        if ctx.dock_field is None:
+            ctx.dock_field = ctx.map_planner.distances_from(ctx.dock.xy)
+        return ctx.map_planner.lookup(ctx.dock_field, pose.xy) * ctx.budget.detour
 
     def timeout(self) -> float:
         left = getattr(self, "time_left", None)
@@ -107,4 +118,5 @@ class NavigateTo(ActionLeaf):
         if not reached_by_detour(driven, self.expected, p.detour_ratio, p.detour_margin):
             return False
         budget = ctx.budget
-        return budget.way_back_too_long(ctx.now() - budget.started + p.detour_check_ahead, ctx.robot.distance_travelled)
+        return budget.way_back_too_long(ctx.now() - budget.started + p.detour_check_ahead, ctx.robot.distance_travelled,
+                                        driven + self.start_home_m)

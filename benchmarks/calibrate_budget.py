@@ -9,7 +9,10 @@ the robot time from handing it out to handing out the next (driving, turning, Lo
 and the grid path length of its leg, and fits ``time = metres / speed + heading_time`` by
 least squares over all waypoints. It prints each pass (planned, used, budget) and the
 fitted values, with the upper quantile of the per-waypoint residual (what the runtime
-guard must allow for).
+guard must allow for), and, for comparison, a fit with one more term, a time per stop
+arrived at (a waypoint whose leg is longer than ``ARRIVAL_M``; a stop's further headings
+are turns on the spot), which the planner does not use: on the offices it lowered the
+residual little.
 
     python benchmarks/calibrate_budget.py --sizes 24x20,30x24 --shares 15,25,40,60
 """
@@ -83,6 +86,9 @@ def waypoint_legs(ticks: list[tuple], planner: GridPlanner) -> list[tuple[float,
     return out
 
 
+ARRIVAL_M = 0.3  # [m] a waypoint whose leg is longer arrives at a new stop; shorter: a turn on the spot
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--sizes", default="24x20,30x24")
@@ -101,7 +107,14 @@ def main(argv: list[str] | None = None) -> int:
     residual = leg[:, 1] - a @ np.array([per_m, per_heading])
     print(f"\nfit over {len(leg)} waypoints of {len(rows)} passes: speed {1 / per_m:.3f} m/s, heading_time "
           f"{per_heading:.2f} s; residual 90 % quantile {np.quantile(residual, 0.9):+.1f} s, "
-          f"max {residual.max():+.1f} s; passes over budget: {sum(r[5] > r[3] for r in rows)} of {len(rows)}")
+          f"max {residual.max():+.1f} s; passes over budget: {sum(r[5] > r[3] for r in rows)} of {len(rows)}; "
+          f"budget used: {np.mean([r[5] / r[3] for r in rows]):.1%} on average")
+    arrival = (leg[:, 0] > ARRIVAL_M).astype(float)
+    a = np.stack([leg[:, 0], arrival, np.ones(len(leg))], axis=1)
+    (per_m, per_stop, per_heading), *_ = np.linalg.lstsq(a, leg[:, 1], rcond=None)
+    residual = leg[:, 1] - a @ np.array([per_m, per_stop, per_heading])
+    print(f"with a time per stop ({int(arrival.sum())} arrivals): speed {1 / per_m:.3f} m/s, {per_stop:.2f} s per "
+          f"stop, {per_heading:.2f} s per heading; residual 90 % quantile {np.quantile(residual, 0.9):+.1f} s")
     shutil.rmtree(root, ignore_errors=True)
     return 0
 

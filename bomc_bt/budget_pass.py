@@ -166,8 +166,13 @@ def look_time_left(budget: PassBudget | None, elapsed: float, index: int | None)
     if budget is None or budget.full_pass or index is None or not budget.home_m:
         return None
     index = min(index, len(budget.home_m) - 1)
-    arrive = budget.heading_time if index < len(budget.home_m) - 1 else 0.0  # at the dock: there already
-    return max(0.0, budget.seconds - elapsed - budget.home_seconds(index) - arrive)
+    # two headings' time: turning to set off for home, and to the dock's heading on arrival (a short
+    # way home is mostly turning); at the dock itself only the ticks that close the pass
+    turns = 2 * budget.heading_time if index < len(budget.home_m) - 1 else CLOSING_S
+    return max(0.0, budget.seconds - elapsed - budget.home_seconds(index) - turns)
+
+
+CLOSING_S = 0.5  # [s] kept back from a look at the dock: the ticks after it that close the pass
 
 
 def drive_time_left(budget: PassBudget | None, elapsed: float, index: int | None) -> float | None:

@@ -22,6 +22,8 @@ from bomc_bt.site import Site, TrajectoryRecorder
 from bomc_bt.trail import Trail
 
 if TYPE_CHECKING:  # annotations only: a context does not import the planners and the graph
+    import numpy as np
+
     from bomc_bt.budget_plan import PassBudget
     from bomc_bt.exploration.explorer import Explorer
     from bomc_bt.graph import ObjectGraph
@@ -66,6 +68,7 @@ class MissionContext:
     traverse: TraversalState | None = None
     perception: Perception | None = None
     map_planner: GridPlanner | None = None  # shortest paths on the saved map (NavigateTo's detour test)
+    dock_field: np.ndarray | None = None  # map_planner's path lengths to the dock (a budgeted pass's way home)
     trail: Trail = field(default_factory=Trail)  # the way the robot drove in (NavigateTo adds; a back-out follows)
     budget: PassBudget | None = None  # a pass with a budget of robot time (bomc_bt.budget_pass); None: full
     watch: StuckWatch | None = None  # missed waypoints in a row and the recovery log (behaviours/recover.py)

@@ -56,6 +56,8 @@ def test_a_budgeted_pass_keeps_its_budget_comes_home_and_reports_what_it_skipped
     assert result.returncode == 0, result.stderr
     report = json.loads((site / "sessions" / "2" / "report.json").read_text())
     assert report["sim_time_s"] <= budget
+    # and spent, not left half unused: a plan that reckoned 4.5 s per heading came home after 20 of 40 s
+    assert report["sim_time_s"] >= 0.6 * budget
     b = report["budget"]
     assert b["seconds"] == budget and not b["full_pass"] and 0 < b["stops"] < b["stops_total"]
     assert b["regions"] > 0 and b["skipped_regions"], "a 30 % pass leaves regions unseen"

@@ -12,7 +12,7 @@ from behaviours.look_around import LookAround
 from behaviours.navigate import NavigateTo
 from behaviours.plan_pass import PlanGapViewpoints, PlanRefreshStops, PlanTraversal
 from behaviours.waypoints import NextWaypoint, WaypointsDone
-from bomc_bt.budget_pass import budget_key, look_time_left
+from bomc_bt.budget_pass import CLOSING_S, budget_key, look_time_left
 from bomc_bt.budget_plan import PassBudget
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Node, ObjectGraph
@@ -111,7 +111,7 @@ def budgeted_look_around(ctx, robot, seconds: float) -> LookAround:
 
 
 def test_a_look_around_ends_when_the_budget_must_head_home(ctx, robot):
-    leaf = budgeted_look_around(ctx, robot, 20.0)  # 20 s - 4 m / 0.5 m/s - 4 s to arrive: 8 s to look
+    leaf = budgeted_look_around(ctx, robot, 24.0)  # 24 s - 4 m / 0.5 m/s - 2 x 4 s to turn: 8 s to look
     assert tick(leaf) == Status.RUNNING and len(robot.goals) == 1
     robot.last.finish(Nav.SUCCEEDED, "turned")
     assert tick(leaf) == Status.RUNNING  # a dwell of 20 s starts
@@ -122,9 +122,10 @@ def test_a_look_around_ends_when_the_budget_must_head_home(ctx, robot):
 
 
 def test_a_budget_with_no_time_left_looks_at_nothing_and_a_full_pass_looks_as_always(ctx, robot):
-    leaf = budgeted_look_around(ctx, robot, 12.0)  # exactly the way home: nothing to spare
+    leaf = budgeted_look_around(ctx, robot, 16.0)  # exactly the way home: nothing to spare
     assert tick(leaf) == Status.SUCCESS and robot.goals == []  # not even one turn
-    assert look_time_left(ctx.budget, 0.0, 1) == 12.0  # at the dock: the rest of the budget
+    # at the dock: the rest of the budget but the ticks that close the pass (it ended 0.1 s late)
+    assert look_time_left(ctx.budget, 0.0, 1) == 16.0 - CLOSING_S
     ctx.budget.full_pass = True
     assert look_time_left(ctx.budget, 0.0, 0) is None
 
@@ -137,8 +138,8 @@ def test_the_drive_to_a_tour_waypoint_gives_up_when_the_robot_must_head_home_but
                             home_m=[5.0, 0.0])
     write_goal(Pose2D(9.0, 9.0, 0.0))
     leaf = NavigateTo("Go", None, ctx)
-    assert tick(leaf) == Status.RUNNING and leaf.timeout() == 16.0  # 30 s - 5 m / 0.5 m/s - 4 s to arrive
-    robot.advance(16.0)
+    assert tick(leaf) == Status.RUNNING and leaf.timeout() == 12.0  # 30 s - 5 m / 0.5 m/s - 2 x 4 s to turn
+    robot.advance(12.0)
     assert tick(leaf) == Status.FAILURE and "budget" in leaf.feedback_message
     ctx.traverse.current = 1  # the dock
     write_goal(Pose2D(1.0, 1.0, 0.0))
@@ -152,7 +153,7 @@ def test_a_detour_on_the_way_out_makes_the_way_home_reckoned_longer():
     budget.note_leg(10.0, 20.0)  # a closed corridor: twice the map's way
     assert budget.detour == 2.0 and budget.home_seconds(0) == 40.0
     assert not budget.allows(10.0, 2.0, 0)  # 10 + 8 + 40 + 8 = 66 s
-    assert look_time_left(budget, 10.0, 0) == 6.0
+    assert look_time_left(budget, 10.0, 0) == 2.0
     budget.note_leg(float("inf"), 5.0)  # a leg the map has no way for says nothing
     assert budget.detour == 2.0
 
@@ -176,3 +177,25 @@ def test_a_detour_the_budget_cannot_afford_is_given_up_while_the_way_back_still_
     retry = NavigateTo("Retry", None, ctx)
     assert tick(retry) == Status.FAILURE  # no second try: the budget has turned home
     assert not ctx.budget.allows(28.0, 0.0, 0) and ctx.budget.allows(28.0, 0.0, 1)  # only the dock is left
+
+
+def test_a_detour_late_in_a_long_pass_is_driven_when_its_own_way_back_fits(ctx, robot):
+    """The way home known to be open is this leg's way back, then the map's way home from its
+    start: not everything driven since the dock, which late in a long pass never fits."""
+    robot.place(Pose2D(2.0, 1.0, 0.0))  # one metre from the dock
+    ctx.plan = TraversalPlan([Pose2D(9.0, 1.0, 0.0), Pose2D(1.0, 1.0, 0.0)], 20.0)
+    ctx.traverse = TraversalState(ctx.plan)
+    ctx.traverse.current = 0
+    ctx.budget = PassBudget(600.0, "expected_changes", speed=0.5, heading_time=4.0, started=robot.now() - 300.0,
+                            home_m=[8.0, 0.0], odometer=robot.distance_travelled - 200.0)  # 200 m since the dock
+    write_goal(Pose2D(9.0, 1.0, 0.0))
+    leaf = NavigateTo("Go", None, ctx)
+    assert tick(leaf) == Status.RUNNING
+    robot.distance_travelled += 20.0  # 20 m for the map's 7 m: a detour
+    robot.advance(20.0)
+    # 320 s + 5 s ahead + (20 m back + 1 m home) / 0.5 m/s + 4 s = 371 s of 600: drive on (all 220 m since
+    # the dock would be 769 s: home)
+    assert tick(leaf) == Status.RUNNING and not ctx.budget.homeward
+    robot.distance_travelled += 100.0
+    robot.advance(80.0)
+    assert tick(leaf) == Status.FAILURE and ctx.budget.homeward  # 400 + 5 + 242 + 4 s > 600 s
