@@ -88,7 +88,8 @@ def parser() -> argparse.ArgumentParser:
     o.add_argument("--static", action="store_true", help="nothing ever changes (all sessions identical)")
     o.add_argument("--corridor-chairs", type=int, default=0, metavar="N",
                    help="sessions N, 2N, ... leave a chair in the middle of a corridor (default 0: never)")
-    o.add_argument("--resolution", type=float, default=0.05, help="map metres per cell")
+    o.add_argument("--resolution", type=float, default=0.05,
+                   help="map metres per cell, 0.02 to 0.1 (walls are drawn at least two cells thick)")
     o.add_argument("--hot-rooms", type=float, default=0.0, help="share of rooms where most changes happen (default 0)")
     o.add_argument("--force", action="store_true", help="replace existing files")
     from bomc_bt.worldgen_cli import add_parser as add_map_world

@@ -203,6 +203,30 @@ def test_the_command_writes_a_world_and_refuses_to_overwrite_it(tmp_path, capsys
     assert main([*args, "--force"]) == 0 and out.read_bytes() == before
 
 
+@pytest.mark.parametrize("resolution", [0.06, 0.1])
+def test_a_coarse_resolution_gives_walls_two_cells_thick_and_a_floor_the_robot_can_reach(tmp_path, capsys,
+                                                                                       resolution):
+    """``--resolution`` above 0.05 m used to fail on a wall thickness no option sets
+    ("partition_wall: ... at least two map cells thick, got 0.1"); now thinner walls are
+    drawn two cells thick. The robot still reaches every robot-sized free cell."""
+    out = tmp_path / "w.yaml"
+    args = ["world", "office", "--out", str(out), "--size", "24x18", "--seed", "5", "--resolution", str(resolution)]
+    assert main(args) == 0, capsys.readouterr().err
+    world = load_world(out)
+    g = world.grid
+    assert g.resolution == pytest.approx(resolution)
+    walls = world.walls()
+    # no wall is a single cell thick: every wall cell has a wall neighbour along x and one along y
+    padded = np.pad(walls, 1)
+    thick = (padded[1:-1, :-2] | padded[1:-1, 2:]) & (padded[:-2, 1:-1] | padded[2:, 1:-1])
+    assert not np.any(walls & ~thick)
+    scene = Scene(world, {}, [])
+    reach = _reachable(scene, (world.start.x, world.start.y))
+    passable = scene.collision_distance >= RADIUS + g.resolution
+    assert np.array_equal(reach, passable), "some robot-sized free space is cut off from the dock"
+    assert reach.sum() * g.resolution ** 2 > 0.5 * 24 * 18
+
+
 @pytest.mark.parametrize(("extra", "named"), [
     (["--size", "30"], "--size"),
     (["--size", "5x20"], "--size"),

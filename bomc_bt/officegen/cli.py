@@ -13,7 +13,7 @@ from collections import Counter
 
 from bomc_bt.errors import BomcError
 from bomc_bt.officegen.generate import draft_office, write_office
-from bomc_bt.officegen.params import OfficeParams
+from bomc_bt.officegen.params import OfficeParams, walls_at
 
 _OPTION = {"width": "--size", "height": "--size", "seed": "--seed", "sessions": "--sessions",
            "churn": "--churn", "resolution": "--resolution", "corridor_chair_every": "--corridor-chairs",
@@ -35,7 +35,7 @@ def params_from_args(args: Namespace) -> OfficeParams:
                           seed=args.seed, sessions=args.sessions, static=args.static,
                           churn=0.05 if args.churn is None else args.churn,
                           corridor_chair_every=getattr(args, "corridor_chairs", 0),
-                          hot_rooms=getattr(args, "hot_rooms", 0.0))
+                          hot_rooms=getattr(args, "hot_rooms", 0.0), **walls_at(args.resolution))
     try:
         return params.check()
     except BomcError as exc:

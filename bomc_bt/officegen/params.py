@@ -57,7 +57,17 @@ HOT_PLACE = 0.85  # share of new and returning objects placed in a hot room, whe
 # What appears when a session adds new objects (category, share).
 ADDED_MIX: tuple[tuple[str, float], ...] = (("chair", 0.6), ("trash bin", 0.25), ("potted plant", 0.15))
 
+# [m] wall thicknesses drawn at the default 0.05 m cells; at coarser cells see walls_at()
+NOMINAL_WALLS = {"outer_wall": 0.2, "corridor_wall": 0.15, "partition_wall": 0.1}
 MAX_CELLS = 30_000_000  # a 270 x 270 m floor at 0.05 m/cell: memory stays under about 1 GB
+
+
+def walls_at(resolution: float) -> dict[str, float]:
+    """The nominal wall thicknesses, each made at least two map cells thick at ``resolution``
+    (the least :meth:`OfficeParams.check` allows). A floor asked for at 0.1 m cells gets
+    0.2 m walls, not an error about a wall its user never set."""
+    two_cells = 2 * resolution if isinstance(resolution, (int, float)) and math.isfinite(resolution) else 0.0
+    return {name: round(max(nominal, two_cells), 6) for name, nominal in NOMINAL_WALLS.items()}
 
 
 @dataclass
@@ -75,9 +85,9 @@ class OfficeParams:
     name: str = ""  # world name; empty: the output file's stem
     corridor_pitch: float = 10.0  # centre-to-centre spacing of parallel corridors
     corridor_width: tuple[float, float] = (2.0, 2.5)
-    outer_wall: float = 0.2
-    corridor_wall: float = 0.15
-    partition_wall: float = 0.1
+    outer_wall: float = NOMINAL_WALLS["outer_wall"]
+    corridor_wall: float = NOMINAL_WALLS["corridor_wall"]
+    partition_wall: float = NOMINAL_WALLS["partition_wall"]
     door_width: float = 1.2  # clear opening of a doorway
     room_width: tuple[float, float] = (3.5, 8.0)  # rooms along a corridor, their frontage
     double_row_share: float = 0.75  # deep blocks split into two rows of rooms back to back
