@@ -227,6 +227,21 @@ def test_a_coarse_resolution_gives_walls_two_cells_thick_and_a_floor_the_robot_c
     assert reach.sum() * g.resolution ** 2 > 0.5 * 24 * 18
 
 
+@pytest.mark.parametrize("size", ["25x12", "13x40"])
+def test_a_floor_with_no_corridor_to_close_gets_its_sessions_without_a_closure(tmp_path, capsys, size):
+    """Narrow floors used to fail outright ("generator bug: no corridor segment can be
+    closed in session 3 without cutting the floor apart") with the default three sessions.
+    Now session 3 simply closes nothing, and says so in the summary."""
+    out = tmp_path / "narrow.yaml"
+    assert main(["world", "office", "--out", str(out), "--size", size, "--seed", "1", "--sessions", "4"]) == 0, \
+        capsys.readouterr().err
+    assert "0 corridor closures" in capsys.readouterr().out
+    world = load_world(out)
+    assert world.last_session == 4
+    assert not any(c.obstacles for c in world.sessions.values())
+    assert sum(len(c.remove) + len(c.move) + len(c.add) for c in world.sessions.values()) > 0, "changes still drawn"
+
+
 @pytest.mark.parametrize(("extra", "named"), [
     (["--size", "30"], "--size"),
     (["--size", "5x20"], "--size"),

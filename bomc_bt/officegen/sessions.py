@@ -7,7 +7,9 @@ removed earlier coming back (at their old place when it is free, else elsewhere)
 ones -- at least one of each, however small the floor. Every ``obstacle_every``-th
 session a corridor segment between two crossings is closed wall to wall by an
 unlabelled obstacle, away from any doorway, and the generator verifies that the robot
-can still reach everything it could reach before by going round. Every session
+can still reach everything it could reach before by going round. Where no segment can be
+closed so (corridors that form no loop, or loops whose segments are all lined with
+doorways: narrow and small floors, 25 x 12 or 18 x 18 m), the session closes none. Every session
 k >= 2 also has one change *during* the pass, timed inside it.
 
 All changes are drawn against :class:`~bomc_bt.officegen.layout.Layout` as it stands at
@@ -21,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from bomc_bt.errors import BomcError
 from bomc_bt.officegen.connectivity import rasterise, reachable
 from bomc_bt.officegen.corridor_chairs import (
     add_corridor_move,
@@ -63,7 +64,7 @@ def plan_timeline(layout: Layout) -> Timeline:
             continue
         change = _between(layout, k)
         if k % p.obstacle_every == 0:
-            got = _block_corridor(layout, k)
+            got = _block_corridor(layout)
             if got is not None:
                 change["obstacles"] = [got[0]]
                 out.blocked[k] = got[1]
@@ -182,7 +183,7 @@ def _free_spans(plan: FloorPlan, c: Corridor, lo: float, hi: float) -> list[floa
     return [round(float(v), 3) for v in pos[ok]]
 
 
-def _block_corridor(layout: Layout, k: int) -> tuple[dict[str, Any], Corridor] | None:
+def _block_corridor(layout: Layout) -> tuple[dict[str, Any], Corridor] | None:
     """An obstacle closing one corridor segment wall to wall, with the floor still connected round it."""
     plan, p = layout.plan, layout.params
     grid = plan.grid()
@@ -211,7 +212,4 @@ def _block_corridor(layout: Layout, k: int) -> tuple[dict[str, Any], Corridor] |
                                       ob["size"][1] + 2 * p.robot_radius + 0.3, 0.0)]).astype(bool)
         if not np.any(before & ~after & ~near):
             return ob, c
-    if segments:
-        raise BomcError(f"generator bug: no corridor segment can be closed in session {k} "
-                        "without cutting the floor apart")
-    return None
+    return None  # no loop to go round, or no stretch of one clear of doorways
