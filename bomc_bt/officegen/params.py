@@ -72,7 +72,10 @@ def walls_at(resolution: float) -> dict[str, float]:
 
 @dataclass
 class OfficeParams:
-    """Tunables of :func:`bomc_bt.officegen.generate_office` (metres, seconds, shares in [0, 1])."""
+    """Tunables of :func:`bomc_bt.officegen.generate_office` (metres, seconds, shares in [0, 1]).
+
+    The walls' defaults are two cells thick at 0.05 m cells or finer; at a coarser
+    ``resolution`` pass ``**walls_at(resolution)`` too, as ``bomc world office`` does."""
 
     width: float = 93.0  # outer size of the floor, x
     height: float = 90.0  # outer size of the floor, y
