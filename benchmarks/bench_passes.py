@@ -119,11 +119,13 @@ def make_world(args: argparse.Namespace, root: Path) -> Path:
                        churn=churn)
         return world
     from bomc_bt.officegen import OfficeParams, generate_office
+    from bomc_bt.officegen.params import walls_at
 
     width, height = (float(v) for v in args.size.lower().split("x"))
     world = root / "office.yaml"
     generate_office(OfficeParams(width=width, height=height, seed=args.seed, sessions=args.sessions,
-                                 churn=args.churn, static=args.static), world)
+                                 churn=args.churn, static=args.static, resolution=args.resolution,
+                                 **walls_at(args.resolution)), world)
     return world
 
 
@@ -134,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--sessions", type=int, default=12)
     p.add_argument("--churn", type=float, default=0.05)
     p.add_argument("--static", action="store_true", help="nothing ever changes")
+    p.add_argument("--resolution", type=float, default=0.05, help="generated office: map metres per cell (0.02 to 0.1)")
     p.add_argument("--modes", default="robust,paper", help="association modes, comma-separated")
     p.add_argument("--config", action="append", default=[], help="config file layered over the defaults")
     p.add_argument("--keep", help="directory to keep the world and sites in")

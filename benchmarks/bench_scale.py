@@ -42,6 +42,7 @@ from bomc_bt.exploration.coverage import map_coverage, solid_mask  # noqa: E402
 from bomc_bt.grid import load_map  # noqa: E402
 from bomc_bt.miss_causes import CAUSES, cause_counts  # noqa: E402
 from bomc_bt.officegen import OfficeParams, generate_office  # noqa: E402
+from bomc_bt.officegen.params import walls_at  # noqa: E402
 from bomc_bt.world import load_world  # noqa: E402
 
 
@@ -145,6 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=101, help="generator seed (not one the tests use)")
     ap.add_argument("--sessions", type=int, default=3)
     ap.add_argument("--churn", type=float, default=0.05)
+    ap.add_argument("--resolution", type=float, default=0.05, help="generated map metres per cell (0.02 to 0.1)")
     ap.add_argument("--no-office-s", action="store_true", help="skip the shared office-s floor")
     ap.add_argument("--config", action="append", default=[], help="extra config file (repeatable)")
     args = ap.parse_args(argv)
@@ -154,8 +156,8 @@ def main(argv: list[str] | None = None) -> int:
         tmp = Path(tmp)
         w, h = (float(v) for v in args.size.lower().split("x"))
         world = tmp / "gen" / "world.yaml"
-        generate_office(OfficeParams(width=w, height=h, seed=args.seed, sessions=args.sessions,
-                                     churn=args.churn).check(), world)
+        generate_office(OfficeParams(width=w, height=h, seed=args.seed, sessions=args.sessions, churn=args.churn,
+                                     resolution=args.resolution, **walls_at(args.resolution)).check(), world)
         rows.append(measure_floor(f"generated {args.size} seed {args.seed}", world, tmp / "site-gen",
                                   args.sessions, config))
         if not args.no_office_s:
