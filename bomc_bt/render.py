@@ -63,13 +63,24 @@ def render_semantic_map(grid: OccupancyGrid, nodes: Iterable, removed: Iterable 
 
 
 def _legend(img: np.ndarray, categories: dict[str, tuple[int, int, int]], title: str) -> None:
+    """Title and one line per category at the top left, on a light panel: drawn straight onto
+    the map, the words ran into the walls and the node ids under them."""
+    font, size = cv2.FONT_HERSHEY_SIMPLEX, 0.45
+    lines = ([title] if title else []) + sorted(categories)
+    if not lines:
+        return
+    width = max(cv2.getTextSize(text, font, 0.5 if text == title else size, 1)[0][0] for text in lines)
+    x1, y1 = min(img.shape[1], 26 + width + 8), min(img.shape[0], 6 + 18 * len(lines) + (2 if title else 0) + 4)
+    panel = img[0:y1, 0:x1]
+    panel[:] = (0.15 * panel + 0.85 * 255).astype(np.uint8)
+    cv2.rectangle(img, (0, 0), (x1 - 1, y1 - 1), (150, 150, 150), 1)
     y = 18
     if title:
-        cv2.putText(img, title, (8, y), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(img, title, (8, y), font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
         y += 20
     for name, colour in sorted(categories.items()):
         cv2.circle(img, (14, y - 4), 6, colour, -1, cv2.LINE_AA)
-        cv2.putText(img, name, (26, y), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(img, name, (26, y), font, size, (0, 0, 0), 1, cv2.LINE_AA)
         y += 18
 
 
