@@ -105,7 +105,8 @@ class SimPlanners:
             return None
         return r0, r1, c0, c1
 
-    def _window_planner(self, bounds: tuple[int, int, int, int]) -> GridPlanner:
+    def _window_planner(self, bounds: tuple[int, int, int, int],
+                        params: PlannerParams | None = None) -> GridPlanner:
         r0, r1, c0, c1 = bounds
         grid = self.map
         window = grid.crop(r0, r1, c0, c1)
@@ -120,18 +121,36 @@ class SimPlanners:
             extra[:, :band] = True
         if sides[3]:
             extra[:, -band:] = True
-        return GridPlanner(window, self.params, extra)
+        return GridPlanner(window, params or self.params, extra)
 
-    def squeeze(self) -> GridPlanner | None:
-        """While building, the planner with ``squeeze_radius`` on known space only: the last
-        resort when the live planner has no path (a robot inside a pocket whose way out is
-        narrower than ``robot_radius`` allows). None once a saved map is in use."""
-        if self.map is not None or self.params.squeeze_radius >= self.params.robot_radius:
+    def squeeze(self, a: np.ndarray, b: np.ndarray) -> GridPlanner | WindowPlanner | None:
+        """The last resort when the live planner has no path from ``a`` to ``b``: the same
+        map with only ``squeeze_radius`` of clearance. While building, on known space of the
+        mapper's grid (a robot inside a pocket whose way out is narrower than
+        ``robot_radius`` allows). On a saved map, with the obstacle layer, in a window round
+        the two ends as :meth:`around` plans: a passage the robot drove in by can be closed
+        behind it by the lidar's returns off what the map drew a cell thinner (a real
+        building's SLAM map, willow at 0.1 m), and the robot stood there for the rest of the
+        pass. None when ``squeeze_radius`` is no narrower than ``robot_radius``."""
+        if self.params.squeeze_radius >= self.params.robot_radius:
             return None
-        assert self.mapper is not None
         params = replace(self.params, robot_radius=self.params.squeeze_radius, allow_unknown=False)
-        return self._cached("squeeze", ("mapper", self.mapper.updates),
-                            lambda: GridPlanner(self.mapper.grid(), params))
+        if self.map is None:
+            assert self.mapper is not None
+            return self._cached("squeeze", ("mapper", self.mapper.updates),
+                                lambda: GridPlanner(self.mapper.grid(), params))
+        assert self.obstacles is not None
+        obstacles = self.obstacles
+
+        def whole() -> GridPlanner:
+            return self._cached("squeeze", ("obstacles", obstacles.version),
+                                lambda: GridPlanner(self.map, params, obstacles.mask))
+
+        bounds = self._window(np.asarray(a, float), np.asarray(b, float))
+        if bounds is None:
+            return whole()
+        return self._cached("squeeze window", ("window", bounds, obstacles.version),
+                            lambda: WindowPlanner(self._window_planner(bounds, params), whole))
 
     def path_clear(self, path: np.ndarray, skip: float) -> bool:
         """Cheap check of the plan against what is known to be occupied now (no rebuild)."""
