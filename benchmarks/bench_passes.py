@@ -50,6 +50,7 @@ class PassRow:
     sim_s: float
     wall_s: float
     store_mb: float
+    outcome: str = ""  # the session report's: completed, ended_early, ...
 
 
 def flipping_nodes(events) -> int:
@@ -86,13 +87,13 @@ def run_mode(world: Path, build_site: Path, site: Path, mode: str, sessions: int
         rows.append(PassRow(mode, n, f1, ov.precision, ov.recall, ov.f1, ov.gt, ov.mapped, changes.phantom,
                             len(changes.late),
                             sum(changes.raw_events.get(k, 0) for k in CHANGE_EVENT_KINDS), flipping_nodes(events),
-                            result.sim_time, wall, store_megabytes(site)))
+                            result.sim_time, wall, store_megabytes(site), str(result.summary.get("outcome", ""))))
         print(format_row(rows[-1]), flush=True)
     return rows
 
 
 HEADER = (f"{'mode':<7} {'pass':>4} {'obj F1':>6} {'chg P':>6} {'chg R':>6} {'chg F1':>6} {'true':>5} {'net':>5} "
-          f"{'phantom':>7} {'late':>4} {'raw':>5} {'flips':>5} {'sim s':>7} {'wall s':>7} {'store MB':>8}")
+          f"{'phantom':>7} {'late':>4} {'raw':>5} {'flips':>5} {'sim s':>7} {'wall s':>7} {'store MB':>8} end")
 
 
 def format_row(r: PassRow) -> str:
@@ -101,7 +102,7 @@ def format_row(r: PassRow) -> str:
 
     return (f"{r.mode:<7} {r.session:>4} {f(r.object_f1):>6} {f(r.change_p):>6} {f(r.change_r):>6} "
             f"{f(r.change_f1):>6} {r.true_changes:>5} {r.net_changes:>5} {r.phantom:>7} {r.late:>4} {r.raw_changes:>5} "
-            f"{r.flipping_nodes:>5} {r.sim_s:>7.0f} {r.wall_s:>7.1f} {r.store_mb:>8.2f}")
+            f"{r.flipping_nodes:>5} {r.sim_s:>7.0f} {r.wall_s:>7.1f} {r.store_mb:>8.2f} {r.outcome}")
 
 
 def make_world(args: argparse.Namespace, root: Path) -> Path:
