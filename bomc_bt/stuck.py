@@ -13,7 +13,8 @@ behind the recovery subtree of ``trees/recover.yaml``:
   pose, the latest scan) and the waypoints still to visit:
 
   - ``lost``: too few scan returns lie on the map's walls at the estimated pose;
-  - ``stale_obstacles``: with the map and what the lidar sees *now*, a waypoint that just
+  - ``stale_obstacles``: with the map and what the lidar sees *now* (every return, those on
+    the map's walls too: a wall the map drew thinner narrows a doorway), a waypoint that just
     failed is reachable, so the navigation's obstacle layer holds what is no longer there;
   - ``boxed_in``: none of the waypoints left is reachable past the objects the lidar sees
     that the map does not have, though the map alone has a way: the robot is shut in; or
@@ -78,10 +79,13 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     if len(hits) and agreement < params.min_agreement:
         return Diagnosis(LOST, f"only {agreement:.0%} of the scan returns lie on the map's walls "
                                f"at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0, blockers)
-    now = reachable_from(grid, pose, off_map, robot_radius)
+    # Every return counts for the way open now, not only those off the map: a return within
+    # on_map_distance of a wall the map drew thinner still narrows a doorway for navigation.
+    now = reachable_from(grid, pose, _inside_grid(grid, hits), robot_radius)
     on_map_only = reachable_from(grid, pose, np.zeros((0, 2)), robot_radius)
     area = float(np.count_nonzero(now)) * grid.resolution ** 2
     where = _at(blockers)
+    what = "objects the map does not have" if blockers else "walls the lidar sees thicker than the map draws them"
     if any(_inside(grid, now, xy) for xy in failed):
         if moved is not None and failed and moved < params.wedged_distance:
             return Diagnosis(BOXED_IN, f"wedged: the way looks open, but the robot moved {moved:.1f} m while "
@@ -91,10 +95,10 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
                          agreement, area, blockers)
     wanted = [xy for xy in remaining if _inside(grid, on_map_only, xy)]
     if any(_inside(grid, now, xy) for xy in wanted):
-        return Diagnosis(CUT_OFF, f"the waypoints that failed lie behind objects the map does not have{where}; "
+        return Diagnosis(CUT_OFF, f"the waypoints that failed lie behind {what}{where}; "
                                   "the robot can reach the others", agreement, area, blockers)
     floor = float(np.count_nonzero(on_map_only)) * grid.resolution ** 2
-    return Diagnosis(BOXED_IN, f"boxed in by objects the map does not have{where}: none of the "
+    return Diagnosis(BOXED_IN, f"boxed in by {what}{where}: none of the "
                                f"{len(wanted) or len(remaining)} waypoint(s) left is reachable, "
                                f"{area:.1f} of {floor:.1f} m² of floor within reach", agreement, area, blockers)
 
@@ -107,6 +111,13 @@ def _hits(pose: Pose2D, scan: LaserScan | None, max_range: float) -> np.ndarray:
     near = np.hypot(beams.xy[:, 0], beams.xy[:, 1]) < max_range
     x, y = to_world(pose, beams.xy[near])
     return np.stack([x, y], axis=1)
+
+
+def _inside_grid(grid: OccupancyGrid, hits: np.ndarray) -> np.ndarray:
+    if not len(hits):
+        return hits
+    rows, cols = grid.world_to_cell(hits[:, 0], hits[:, 1])
+    return hits[grid.in_bounds(rows, cols)]
 
 
 def _agreement(grid: OccupancyGrid, on_map: np.ndarray | None, hits: np.ndarray,

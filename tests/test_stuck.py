@@ -152,3 +152,20 @@ def test_the_diagnosis_line_names_the_place_the_rounds_and_the_cause():
 def test_recovery_params_are_range_checked(field, value):
     with pytest.raises(ValueError, match=field):
         RecoveryParams(**{field: value})
+
+
+def test_jambs_the_map_drew_thinner_are_no_stale_obstacles():
+    """Real SLAM maps draw walls a cell thinner than the lidar sees them (willow, 0.1 m):
+    returns 0.15 m off a jamb are "on the map" for the pose check, but they narrow a
+    0.85 m doorway to 0.5 m, which the planner's 0.3 m radius cannot pass. The diagnosis
+    called that stale obstacles, cleared the layer, which the next scan filled again, and
+    the pass ended early; the way the lidar sees now is closed, so the robot is boxed in
+    and backs out the way it came."""
+    saved = two_rooms()
+    saved = with_box(saved, 5.0, 0.0, 5.1, 1.05)  # the map's doorway: 0.8 m (y 1.1 to 1.9)
+    saved = with_box(saved, 5.0, 1.95, 5.1, 3.0)
+    now = with_box(saved, 5.0, 0.0, 5.1, 1.25)  # the jambs as the lidar sees them: 0.15-0.2 m thicker
+    now = with_box(now, 5.0, 1.75, 5.1, 3.0)
+    found = diagnose(saved, ROBOT, cast(now, ROBOT), BEYOND, BEYOND, PARAMS, RADIUS)
+    assert found.cause == BOXED_IN, found
+    assert "walls the lidar sees thicker than the map draws them" in found.detail
