@@ -81,7 +81,7 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
                                f"at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0, blockers)
     # Every return counts for the way open now, not only those off the map: a return within
     # on_map_distance of a wall the map drew thinner still narrows a doorway for navigation.
-    now = reachable_from(grid, pose, _inside_grid(grid, hits), robot_radius)
+    now = reachable_from(grid, pose, hits, robot_radius)
     on_map_only = reachable_from(grid, pose, np.zeros((0, 2)), robot_radius)
     area = float(np.count_nonzero(now)) * grid.resolution ** 2
     where = _at(blockers)
@@ -111,13 +111,6 @@ def _hits(pose: Pose2D, scan: LaserScan | None, max_range: float) -> np.ndarray:
     near = np.hypot(beams.xy[:, 0], beams.xy[:, 1]) < max_range
     x, y = to_world(pose, beams.xy[near])
     return np.stack([x, y], axis=1)
-
-
-def _inside_grid(grid: OccupancyGrid, hits: np.ndarray) -> np.ndarray:
-    if not len(hits):
-        return hits
-    rows, cols = grid.world_to_cell(hits[:, 0], hits[:, 1])
-    return hits[grid.in_bounds(rows, cols)]
 
 
 def _agreement(grid: OccupancyGrid, on_map: np.ndarray | None, hits: np.ndarray,
