@@ -15,8 +15,8 @@ under the same name in another category counts as removed plus added.
 the session report shows the operator): only nodes with an event in the pass are looked
 at, and only their state at the two ends counts, so a node removed and re-added (or moved
 away and back) within the pass is no change at all, nor is a duplicate merged into
-another node. present -> absent is ``removed`` (at the node's last position, that of its
-removal), absent -> present is ``added``, present -> present displaced by more than the
+another node. present -> absent is ``removed`` (at the node's position when the pass began, the
+object the map showed), absent -> present is ``added``, present -> present displaced by more than the
 association distance is ``moved``.
 
 **Matching**, per kind and category, one-to-one, the object protocol's maximum matching

@@ -5,7 +5,10 @@ counted and found again a few seconds later); an operator wants to know what is 
 now from before. :func:`net_changes` replays the history to both ends of a period and
 compares each node that had an event in it:
 
-* absent -> present: ``added``; present -> absent: ``removed`` (at its last position);
+* absent -> present: ``added``; present -> absent: ``removed``, at the position the node
+  had when the period began: that is the object the map showed and that is gone. A removed
+  node the pass revived once elsewhere (a neighbour's detection taken for it moved) and
+  removed again reports the place the operator knew, not the neighbour's;
   present -> present farther than ``threshold(category)`` along the floor: ``moved``;
 * anything else (removed and found again, moved away and back, a nudge) is no change;
 * a node folded into another as a duplicate (a removal with ``merged_into``) is no change
@@ -50,7 +53,7 @@ class NetChange:
     kind: str  # "removed" | "added" | "moved" | "first_seen" | "retracted"
     node_id: int
     category: str
-    old: np.ndarray | None  # where it stood when the period began (a removal: where it was last)
+    old: np.ndarray | None  # where it stood when the period began
     new: np.ndarray | None  # where it stands at the end
     distance: float  # m, old to new (0 unless moved)
     missing_frames: int | None  # a removal: frames that counted it missing (None: not recorded)
@@ -143,8 +146,9 @@ def net_changes(events: Sequence[Event], since: int | None,
                                      a.stamp, counts[nid]))
         elif was and a.merged_into is None:
             kind = RETRACTED if a.retracted else "removed"
-            out.append(NetChange(kind, nid, a.category, pos, None, 0.0, a.misses, a.last_seen, a.session,
-                                 a.stamp, counts[nid], bool((a.detail or {}).get("merged", False))))
+            out.append(NetChange(kind, nid, a.category, np.asarray(b.position, dtype=float), None, 0.0, a.misses,
+                                 a.last_seen, a.session, a.stamp, counts[nid],
+                                 bool((a.detail or {}).get("merged", False))))
         elif now and not was:
             new_to_map = since is not None and nid in first_added and is_first_seen(first_added[nid])
             out.append(NetChange(FIRST_SEEN if new_to_map else "added", nid, a.category, None, pos, 0.0, None,

@@ -65,6 +65,18 @@ def test_the_period_starts_where_since_says():
     assert kinds(net_changes(history + [ev("updated", 0, 0.0, session=3)], 1, d07)) == [("removed", 1)]
 
 
+def test_a_removal_is_reported_where_the_map_had_the_object_not_where_a_revival_left_it():
+    # PAL hospital, pass 3: a cabinet taken away was removed, then a neighbour's detection
+    # 2.8 m off was taken for it moved there, and it was removed again. The operator's map
+    # had it at x=2.0; reporting x=4.8 pointed at the neighbour, which stands
+    pass_2 = [ev("removed", 1, 2.0, stamp=5.0, misses=8), ev("moved", 1, 4.8, stamp=8.0),
+              ev("removed", 1, 4.8, stamp=12.0, misses=20, last_seen=8.0)]
+    [gone] = net_changes(SESSION_1 + pass_2, 1, d07)
+    assert (gone.kind, gone.node_id, gone.missing_frames, gone.last_seen) == ("removed", 1, 20, 8.0)
+    assert np.allclose(gone.old, [2.0, 0.0, 0.4])
+    assert "at (2.00, 0.00)" in gone.describe()
+
+
 def test_moves_are_cut_at_the_category_threshold():
     history = SESSION_1 + [ev("moved", 0, 0.6), ev("moved", 1, 2.9)]
     assert kinds(net_changes(history, 1, d07)) == [("moved", 1)]
