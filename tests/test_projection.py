@@ -301,3 +301,32 @@ def test_a_detection_on_bare_floor_is_no_object_but_an_object_keeps_the_floor_it
     unfiltered = detections_to_observations(frame, views, ProjectionParams(floor_height=0.0))
     assert len(unfiltered) == 2 and unfiltered[1].position[2] < 0.02  # what it was: a floor "object"
     assert np.allclose(kept[0].position, unfiltered[0].position)  # the object's view is untouched
+
+
+def test_a_far_object_is_not_made_of_what_its_mask_bled_onto_in_front_of_it():
+    """A cabinet 7.5 m away, its mask bled onto the bin in front of it. Beyond max_depth (6 m)
+    the cabinet's own pixels are cut away; the bin's rim would be all that was left, a
+    "cabinet" 2 m too near (PAL's Willow Garage map: two phantom cabinets in one pass).
+    A mask mostly beyond the range is a far object's and gives no observation; a near
+    object whose mask bled onto a wall beyond the range is kept, at its place."""
+    pose = Pose2D(0.0, 0.0, 0.0)
+    cabinet = WorldObject("c", "cabinet", (7.5, 0.0, 0.6), (0.5, 0.9, 1.2))
+    bin_ = WorldObject("b", "bin", (5.3, 0.25, 0.3), (0.4, 0.4, 0.6))
+    frame = see([cabinet, bin_], pose, 5.0)
+    dets, _ = perfect_observations(frame, ["cabinet"])
+    bled = bleed_mask(dets[0].mask, 0.3)
+    assert (frame.depth[bled & ~dets[0].mask] < 6.0).any()  # some of the bleed lies on the bin
+    stats = ProjectionStats()
+    assert detections_to_observations(frame, [dets[0].with_mask(bled)], ProjectionParams(), stats) == []
+    assert stats.too_far == 1 and stats.observations == 0
+
+    walls, grid = empty_world()
+    _, col = grid.world_to_cell(7.5, 0.0)
+    walls[:, int(col):int(col) + 3] = True  # a wall beyond the range, 3 m behind the object
+    near = WorldObject("c", "cabinet", (4.5, 0.0, 0.6), (0.5, 0.9, 1.2))
+    frame = see([near], pose, 5.0, walls=walls, grid=grid)
+    dets, _ = perfect_observations(frame, ["cabinet"])
+    bled = bleed_mask(dets[0].mask, 0.3)
+    assert (frame.depth[bled & ~dets[0].mask] > 6.0).any()  # the bleed sees the far wall
+    [obs] = detections_to_observations(frame, [dets[0].with_mask(bled)], ProjectionParams())
+    assert np.linalg.norm(obs.position[:2] - [4.25, 0.0]) < 0.15  # its face towards the camera

@@ -40,9 +40,10 @@ class ProjectionStats:
     no_depth: int = 0  # no valid depth under the mask
     few_points: int = 0  # fewer than min_points valid points
     on_floor: int = 0  # enough valid points, but fewer than min_points above the floor
+    too_far: int = 0  # most of the mask's depth lies beyond the range used: a far object's
 
     def add(self, other: ProjectionStats) -> None:
-        for name in ("detections", "observations", "no_mask", "no_depth", "few_points", "on_floor"):
+        for name in ("detections", "observations", "no_mask", "no_depth", "few_points", "on_floor", "too_far"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
 
 
@@ -75,6 +76,27 @@ def backproject(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, stride: int 
     x = (u - K[0, 2]) / K[0, 0] * z
     y = (v - K[1, 2]) / K[1, 1] * z
     return np.stack([x, y, z], axis=1)
+
+
+def mostly_beyond(depth: np.ndarray, mask: np.ndarray, stride: int, far: float) -> bool:
+    """Whether more of the mask's pixels (on the ``stride`` lattice, finite depth) lie farther
+    than ``far`` than nearer: the detection is of an object beyond the range used.
+
+    Why: cutting such a mask at ``far`` keeps only what it bled onto in front of the object
+    (a door frame, a table's edge) and makes that the object. A cabinet 7.9 m away, seen
+    past a doorway, became a "cabinet" 2 m nearer, made of its mask's rim on the frame
+    (PAL's Willow Garage map: two phantom additions in one pass).
+    """
+    bounds = _mask_bounds(mask)
+    if bounds is None:
+        return False
+    x, y, w, h = bounds
+    r0, c0 = -(-y // stride) * stride, -(-x // stride) * stride
+    d = depth[r0:y + h:stride, c0:x + w:stride][mask[r0:y + h:stride, c0:x + w:stride]]
+    with np.errstate(invalid="ignore"):
+        beyond = int(np.count_nonzero(d > far))  # NaN compares False
+        within = int(np.count_nonzero((d > 0.0) & (d <= far)))
+    return beyond > within
 
 
 def truncated(depth: np.ndarray, mask: np.ndarray, object_depth: float, margin: float = 0.2,
@@ -175,6 +197,9 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         cam = backproject(frame.depth, det.mask, frame.K, stride, depth_range)
         if len(cam) == 0:
             stats.no_depth += 1
+            continue
+        if mostly_beyond(frame.depth, det.mask, stride, depth_range[1]):
+            stats.too_far += 1
             continue
         if len(cam) < min_points:
             stats.few_points += 1
