@@ -129,7 +129,8 @@ def load_map(yaml_path: str | Path) -> OccupancyGrid:
                     for v in origin)):
         raise BomcError("must be [x, y, yaw], each a number of at most 1e6", yaml_path, "origin")
     if len(origin) == 3 and abs(origin[2]) > 1e-9:
-        raise BomcError("a rotated map origin (yaw != 0) is not supported", yaml_path, "origin")
+        raise BomcError(f"yaw {origin[2]:g}: a rotated map origin is not supported; ROS 1's amcl and "
+                        "costmap_2d ignore the yaw, set it to 0 to use the map as they do", yaml_path, "origin")
     negate = meta.get("negate", 0)
     if negate not in (0, 1) or isinstance(negate, float):
         raise BomcError(f"must be 0 or 1, got {str(negate)[:40]}", yaml_path, "negate")

@@ -70,6 +70,15 @@ def test_corrupt_store_is_reported_and_left_alone(tmp_path, shared):
     assert (tmp_path / "map.yaml").exists()
 
 
+def test_a_rotated_map_origin_is_refused_with_what_to_do(tmp_path):
+    # MIT's Stata basement map (racecar_simulator) ships with origin yaw 3.14
+    (tmp_path / "m.pgm").write_bytes(b"P5\n10 10\n255\n" + b"\xfe" * 100)
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.05\norigin: [25.9, 48.5, 3.14]\n")
+    result = bomc("world", "map", "--map", str(tmp_path / "m.yaml"), "--out", str(tmp_path / "w.yaml"))
+    assert_user_error(result, "m.yaml", "origin", "yaw 3.14", "set it to 0")
+    assert not (tmp_path / "w.yaml").exists()
+
+
 def test_argument_errors_exit_2():
     result = bomc("build")
     assert result.returncode == 2 and "Traceback" not in result.stderr
