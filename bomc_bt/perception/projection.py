@@ -58,14 +58,10 @@ def backproject(depth: np.ndarray, mask: np.ndarray, K: np.ndarray, stride: int 
     if mask.shape != depth.shape:
         raise BomcError(f"mask shape {mask.shape} differs from the depth image {depth.shape}",
                         field="mask")
-    bounds = _mask_bounds(mask)
-    if bounds is None:
+    window = _on_lattice(depth, mask, stride)
+    if window is None:
         return np.empty((0, 3))
-    x, y, w, h = bounds
-    r0 = -(-y // stride) * stride
-    c0 = -(-x // stride) * stride
-    d = depth[r0:y + h:stride, c0:x + w:stride]
-    m = mask[r0:y + h:stride, c0:x + w:stride]
+    d, m, r0, c0 = window
     lo, hi = depth_range if depth_range is not None else (0.0, np.inf)
     with np.errstate(invalid="ignore"):
         valid = m & (d > max(lo, 0.0)) & (d <= hi)  # NaN compares False
@@ -87,16 +83,26 @@ def mostly_beyond(depth: np.ndarray, mask: np.ndarray, stride: int, far: float) 
     past a doorway, became a "cabinet" 2 m nearer, made of its mask's rim on the frame
     (PAL's Willow Garage map: two phantom additions in one pass).
     """
-    bounds = _mask_bounds(mask)
-    if bounds is None:
+    window = _on_lattice(depth, mask, stride)
+    if window is None:
         return False
-    x, y, w, h = bounds
-    r0, c0 = -(-y // stride) * stride, -(-x // stride) * stride
-    d = depth[r0:y + h:stride, c0:x + w:stride][mask[r0:y + h:stride, c0:x + w:stride]]
+    d = window[0][window[1]]
     with np.errstate(invalid="ignore"):
         beyond = int(np.count_nonzero(d > far))  # NaN compares False
         within = int(np.count_nonzero((d > 0.0) & (d <= far)))
     return beyond > within
+
+
+def _on_lattice(depth: np.ndarray, mask: np.ndarray, stride: int
+                ) -> tuple[np.ndarray, np.ndarray, int, int] | None:
+    """Depth and mask over the mask's bounding box on the global ``stride`` lattice, with the
+    window's first row and column; None for an empty mask."""
+    bounds = _mask_bounds(mask)
+    if bounds is None:
+        return None
+    x, y, w, h = bounds
+    r0, c0 = -(-y // stride) * stride, -(-x // stride) * stride
+    return depth[r0:y + h:stride, c0:x + w:stride], mask[r0:y + h:stride, c0:x + w:stride], r0, c0
 
 
 def truncated(depth: np.ndarray, mask: np.ndarray, object_depth: float, margin: float = 0.2,
