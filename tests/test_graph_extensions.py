@@ -271,3 +271,33 @@ def test_a_chair_first_seen_where_no_pass_looked_is_no_new_place_of_a_removed_ne
         assert "moved" in kinds and nodes == {0}
     kinds, nodes = run(lambda p: True, 0.4, False)  # within the gate: the chair itself, seen again
     assert kinds[-1] == "moved" and nodes == {0}
+
+
+def test_two_chairs_a_frame_sees_side_by_side_confirm_two_sightings_not_one_between_them():
+    # chairs 0.8 m apart at a table (delta_c 0.7 m). The first frame sees chair A alone; the
+    # next sees both, chair B listed first and within the gate of A's sighting. B must not
+    # confirm A's sighting: that put one node at the chairs' midpoint, and B was never mapped.
+    g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
+    assert g.associate([obs("chair", 0.0, 0.0)], [], 1, 0.0) == []
+    events = g.associate([obs("chair", 0.64, 0.0), obs("chair", 0.02, 0.0)], [], 1, 1.0)
+    assert [e.kind for e in events] == ["added"]
+    assert abs(g.nodes[events[0].node_id].position[0] - 0.01) < 1e-9  # A, at the mean of A's two views
+    g.associate([obs("chair", 0.8, 0.0), obs("chair", 0.0, 0.0)], [events[0].node_id], 1, 2.0)
+    assert sorted(round(float(n.position[0]), 1) for n in g.nodes.values()) == [0.0, 0.7]
+
+
+def test_a_frame_that_shows_two_chairs_apart_keeps_the_second_off_the_firsts_node():
+    """Two chairs 0.8 m apart behind a table, only ever seen cut off by it. Chair B's view
+    lies within delta_c (0.7 m) of chair A's node, but the frame also shows A, apart from
+    it: a detector names an object once per frame, so B is another chair and is mapped."""
+    def cut(x0: float, x1: float) -> Observation:
+        o = boxed("chair", x0, -0.25, x1, 0.1)
+        o.truncated = True
+        return o
+    g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
+    g.associate([cut(-0.2, 0.2)], [], 1, 0.0)
+    a = g.associate([cut(-0.2, 0.2)], [], 1, 1.0)[0].node_id  # chair A at 0.0
+    for k in range(2, 5):  # then both, B at 0.6 (its far side hidden), 0.1 m apart
+        g.associate([cut(-0.2, 0.2), cut(0.3, 0.8)], [a], 1, float(k))
+    assert len(g.nodes) == 2
+    assert sorted(round(float(v.position[0]), 2) for v in g.nodes.values()) == [0.0, 0.55]

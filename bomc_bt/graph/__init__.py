@@ -26,6 +26,7 @@ The parts, one job each:
 * :mod:`~bomc_bt.graph.footprints` and :mod:`~bomc_bt.graph.extents` -- floor boxes and how
   big each node's object has shown itself;
 * :mod:`~bomc_bt.graph.tentative` -- first sightings awaiting confirmation;
+* :mod:`~bomc_bt.graph.confusions` -- a new sighting on another category's node;
 * :mod:`~bomc_bt.graph.relocations`, :mod:`~bomc_bt.graph.parts` and
   :mod:`~bomc_bt.graph.returns` -- what the end of a pass settles: removals and additions
   that were one object moved, two ends of one object, moves a late neighbour undoes;

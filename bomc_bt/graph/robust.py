@@ -19,13 +19,12 @@
   the robot passes needs a longer run of misses, so a flicker is not a removal.
 * *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in
   ``confirm_detections`` frames.
-* *One object, one label.* A detector now and then names a chair "table". Such a sighting
-  lies on the chair's node, in a frame that did not see the chair; a real table with a
-  chair under it is seen together with the chair. So a new sighting within
+* *One object, one label* (:mod:`bomc_bt.graph.confusions`): a new sighting within
   ``relabel_radius`` of a node of another category counts only in a frame that matched
   that node.
 * *No duplicates.* An unmatched observation within delta_c of a same-category node
-  (which then has been matched by a closer observation) is absorbed, as in the paper.
+  (which then has been matched by a closer observation) is absorbed, as in the paper,
+  unless its floor box lies clear of that closer view's: a frame names each object once.
   Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
 * *Neighbours stay apart* (``separate_neighbours``). A view whose floor box lies clear of
   a small node's footprint is another object, however near (chairs 0.8 m apart round a
@@ -56,7 +55,6 @@ off by the image edge has its centroid too low.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
@@ -64,6 +62,7 @@ import numpy as np
 
 from bomc_bt.graph.association import near_any
 from bomc_bt.graph.co_observed import CoObserved
+from bomc_bt.graph.confusions import confused
 from bomc_bt.graph.evidence import misses_needed
 from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
@@ -114,13 +113,13 @@ class RobustPolicy:
             pairs.extend(zip(d2.tolist(), ids.tolist(), [j] * len(ids), strict=True))
         pairs.sort()
         matched_nodes: set[int] = set()
-        matched_obs: set[int] = set()
+        matched_obs: dict[int, int] = {}  # observation index -> the node it matched
         footprints: dict[int, np.ndarray | None] = {}  # matched nodes' footprints before this frame
         for _, vid, j in pairs:
             if vid in matched_nodes or j in matched_obs:
                 continue
             matched_nodes.add(vid)
-            matched_obs.add(j)
+            matched_obs[j] = vid
             footprints[vid] = graph.nodes[vid].footprint
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
         self.co_observed.note((graph.nodes[v] for v in matched_nodes if v in graph.nodes),
@@ -132,17 +131,24 @@ class RobustPolicy:
                 graph.evidence.seen(vid, stamp, self.params.confirm_interval)
             elif weights.get(vid, 1.0) > 0.0:
                 events.extend(self._miss(graph, graph.nodes[vid], session, stamp, weights.get(vid, 1.0)))
-        placed: list[Node] = []  # nodes added or moved in this frame
+        taker = {vid: obs[j] for j, vid in matched_obs.items()}  # the view each matched node took
+        fresh: list[int] = []  # observations of objects the graph does not hold
         for j, o in enumerate(obs):
-            if j in matched_obs or len(near[j][0]) or near_any(o, placed, self.gate(o), graph.index.scale):
-                continue  # matched, or absorbed: a closer observation already matched that node
+            if j in matched_obs or self._absorbed(o, near[j][0], taker):
+                continue
             if o.truncated and (v := self.extents.touched_node(graph, o)) is not None:
                 # a part of a known object, cut off by an occluder (see NodeExtents.touched_node),
                 # unless it would make that object longer than its kind (NodeExtents.fits)
                 if self.extents.fits(graph, v, o):
                     events.extend(self._refresh(graph, v, o, session, stamp, restart=False, extend=True))
                 continue
-            if self._relabelled(graph, o, matched_nodes) or not self.tentative.confirmed(o, stamp, self.gate(o)):
+            if not confused(graph, o, matched_nodes, self.params.relabel_radius):
+                fresh.append(j)
+        confirmed = self.tentative.confirm_frame([obs[j] for j in fresh], [self.gate(obs[j]) for j in fresh], stamp)
+        placed: list[Node] = []  # nodes added or moved in this frame
+        for j in (j for j, ok in zip(fresh, confirmed, strict=True) if ok):
+            o = obs[j]
+            if near_any(o, placed, self.gate(o), graph.index.scale):
                 continue
             moved = self._move_candidate(graph, o)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
@@ -154,19 +160,10 @@ class RobustPolicy:
                                                     footprints))
         return events
 
-    def _relabelled(self, graph: ObjectGraph, o: Observation, matched: set[int]) -> bool:
-        """Whether ``o`` lies on a node of another category that this frame did not see (a confusion)."""
-        r = self.params.relabel_radius
-        if r <= 0.0:
-            return False
-        x, y = float(o.position[0]), float(o.position[1])
-        square = np.array([[x - r, y - r], [x + r, y - r], [x + r, y + r], [x - r, y + r]])
-        for vid in graph.index.ids_in_polygon(square).tolist():
-            v = graph.nodes.get(int(vid))
-            if v is not None and v.category != o.category and int(vid) not in matched \
-                    and math.hypot(v.position[0] - x, v.position[1] - y) <= r:
-                return True
-        return False
+    def _absorbed(self, o: Observation, near_ids: np.ndarray, taker: dict[int, Observation]) -> bool:
+        """Whether the unmatched ``o`` is the object of a node near it that a closer view of
+        this frame took (as in the paper); not when it lies beside each such view."""
+        return len(near_ids) > 0 and not self.extents.beside(o, [taker[int(v)] for v in near_ids if int(v) in taker])
 
     def _near(self, graph: ObjectGraph, obs: Sequence[Observation]) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per observation: ids and squared distances of the nodes it may match (not those
