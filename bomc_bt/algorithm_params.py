@@ -306,10 +306,6 @@ class ProjectionParams:
     # is (a chair seen only over the table in front, which any detector misses) is no evidence
     # of its absence. 0: off, every miss counts
     absence_margin: float = 0.1
-    # [count] robust: a node matched in at least this many frames is not missed where a
-    # wall-high surface fills its place: a door leaf stands in its wall and rises as high; a
-    # false detection on a wall is matched in few frames, and its misses still count. 0: off
-    absence_settled: int = 4
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the
     # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
     # the middle of the points' spread on the floor (1st to 99th percentile). The mean of the
@@ -334,8 +330,6 @@ class ProjectionParams:
             raise ValueError("expect_edge_on_deg must be in [0, 90]")
         if not 0.0 <= self.absence_margin <= 1.0:
             raise ValueError("absence_margin must be in [0, 1] m (0: off)")
-        if self.absence_settled < 0:
-            raise ValueError("absence_settled must be >= 0 (0: off)")
         if self.box_range < 0.0:
             raise ValueError("box_range must be >= 0 (0: no boxes)")
         if self.fov_columns < 2:

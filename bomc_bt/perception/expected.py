@@ -37,9 +37,7 @@ their work before: a place one of the frame's detections covers is explained by 
 object (a second node on one table is a duplicate, removed by its misses as ever), and a
 false detection on a wall stays removable, since the wall fills its place and also the
 view 0.5-0.8 m above it, where no chair, table or bin reaches (a camera tilted down may
-not show that high above a near node; then the miss counts, as before). That holds for a
-node matched in few frames; one matched in ``projection.absence_settled`` frames or more
-is a door leaf, as high as its wall, and its place filled is held too.
+not show that high above a near node; then the miss counts, as before).
 
 The body is sampled at the node's centroid height: its centre and, when the node has a
 floor footprint, the footprint's corners pulled ``_INSET`` towards the middle (the true
@@ -134,26 +132,20 @@ def miss_weights(frame: RGBDFrame, nodes: Sequence[Node], params: ProjectionPara
     span = params.expect_range - params.miss_full_range
     weights = np.ones(len(nodes)) if span <= 0.0 else np.clip((params.expect_range - distance) / span, 0.0, 1.0)
     if params.absence_margin > 0.0:
-        settled = np.array([0 < params.absence_settled <= n.observations for n in nodes])
-        weights[place_held(frame, nodes, params.absence_margin, detections, settled)] = 0.0
+        weights[place_held(frame, nodes, params.absence_margin, detections)] = 0.0
     return weights.tolist()
 
 
 def place_held(frame: RGBDFrame, nodes: Sequence[Node], margin: float,
-               detections: Sequence[Detection] = (), settled: np.ndarray | None = None) -> np.ndarray:
-    """Per node: the frame shows something undetected where the node stands, furniture-high
-    or, for a ``settled`` node (one many frames matched), as high as a wall.
+               detections: Sequence[Detection] = ()) -> np.ndarray:
+    """Per node: the frame shows something furniture-high and undetected where the node stands.
 
     Held: the depth at the node's centre is no more than ``margin`` beyond it, no detection
     covers that pixel (a detected object there explains it: the node is a duplicate or a
     neighbour's, and its miss counts as ever), and the view above it is not filled too (a
     wall would fill both): the highest of ``_WALL_RISES`` above the centre that the image
     shows must be seen past. When none of them is in the image, nothing is held (the wall
-    test cannot be made). A point without valid depth holds nothing. A settled node's place
-    filled up to wall height is held too: a door leaf rises as high as its wall, and a
-    detector misses one seen at a grazing angle frame after frame from one stop (issue 17:
-    two doors of a static Environment-A-size pass were removed so, five frames in 2.5 s,
-    and reported "added" the pass after).
+    test cannot be made). A point without valid depth holds nothing.
     """
     centres = np.array([n.position for n in nodes], dtype=float).reshape(-1, 3)
     u, v, _, filled = _filled(frame, centres, margin)
@@ -166,8 +158,6 @@ def place_held(frame: RGBDFrame, nodes: Sequence[Node], margin: float,
         pick = inside & ~judged
         clear_above[pick] = ~wall[pick]
         judged |= inside
-    if settled is not None:
-        clear_above |= settled
     return filled & clear_above
 
 
