@@ -20,7 +20,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.pass_resume import ResumeText, frame_progress
+from bomc_bt.pass_resume import ResumeText, earlier_co_observed, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.looked import looked_polygon
@@ -324,6 +324,8 @@ seen before it is written. With a store, every frame
         self.sightings = Sightings(grid)
         if self.seen_before is not None:  # a place new to the map is no moved object's new place
             self.graph.never_looked = self.seen_before.never_looked
+        if self.store is not None:  # two objects an earlier pass saw side by side stay two
+            self.graph.keep_apart(self.session, earlier_co_observed(self.store, self.session))
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)

@@ -119,6 +119,18 @@ def coverage_masks(perception) -> dict[str, str]:
             sightings_key(session): perception.sightings.packed(), **near}
 
 
+def earlier_co_observed(store, session: int) -> list[tuple[int, int]]:
+    """The node pairs the latest earlier pass with a resume point saw as two objects in one
+    frame (:mod:`bomc_bt.graph.co_observed`; that pass's own and those it carried); none
+    before the first pass or where no earlier pass saved one."""
+    for earlier in sorted((s.number for s in store.sessions() if s.number < session), reverse=True):
+        point = store.get_progress(resume_key(earlier))
+        state = ((point.get("graph") or {}).get("co_observed") or {}) if isinstance(point, dict) else {}
+        if state.get("pairs") is not None:
+            return [(int(a), int(b)) for a, b in state["pairs"]]
+    return []
+
+
 def restore_pass(store, session: int, robot, perception) -> bool:
     """Put a killed pass's saved state back into ``robot`` and ``perception`` (and its
     graph); False when nothing was saved (the pass was killed before its first commit)."""

@@ -179,6 +179,14 @@ class ObjectGraph:
             "co_observed": None if co_observed is None else co_observed.to_json(),
         }
 
+    def keep_apart(self, session: int, pairs: list[tuple[int, int]]) -> None:
+        """Start ``session`` knowing the node ``pairs`` earlier passes saw as two objects in
+        one frame (robust association never folds them; :mod:`bomc_bt.graph.co_observed`).
+        Pairs with a node no longer present are dropped."""
+        co_observed = getattr(self.policy, "co_observed", None)
+        if co_observed is not None:
+            co_observed.carry(session, [(a, b) for a, b in pairs if a in self.nodes and b in self.nodes])
+
     def restore_pass_state(self, state: dict, removed: dict[int, Node]) -> None:
         """Put back what :meth:`pass_state` saved; ``removed`` are the store's removed nodes by id."""
         self._session = state.get("session")
