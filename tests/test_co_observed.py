@@ -67,3 +67,35 @@ def test_a_pass_starts_from_the_pairs_the_latest_earlier_pass_saved(tmp_path):
         Perception(None, None, ["chair"], ProjectionParams(), paper, store, 3, grid)  # nothing to carry
         assert pass_sees_a_view_between_them(graph, 3) == {0, 1}
 
+
+def test_a_view_covering_two_chairs_an_earlier_pass_mapped_apart_does_not_fold_them():
+    """Two chairs 0.8 m apart at a table (delta_c 0.7 m), mapped by pass 1 in separate
+    frames, chair B only ever seen cut off by the table. In pass 2 a view nearest chair A,
+    its mask bleeding onto B, has a floor box over most of B's footprint: the duplicate
+    fold took B into A, and A's node then slid onto B's chair (a phantom move). Two nodes
+    an earlier pass kept apart, farther apart than one object reaches, are not one."""
+    def cut(x0: float, x1: float) -> Observation:
+        o = boxed(x0, x1)
+        o.truncated = True
+        return o
+
+    g = ObjectGraph(AssociationParams(confirm_detections=1))
+    g.associate([boxed(-0.25, 0.25)], [], 1, 0.0)  # chair A, whole, at 0.0
+    g.associate([cut(0.55, 1.05)], [0], 1, 1.0)  # chair B, cut off, at 0.8
+    assert len(g.nodes) == 2
+    bleeding = Observation("chair", np.array([0.2, 0.0, 0.6]), 0.9, 500, 0.3, box=np.array([-0.25, -0.25, 0.85, 0.25]))
+    events = g.associate([bleeding], [0], 2, 10.0, in_view=[0, 1])
+    assert "removed" not in [e.kind for e in events]
+    assert set(g.nodes) == {0, 1} and abs(g.nodes[1].position[0] - 0.8) < 1e-9
+    # the same view over two nodes this pass started (a sliver beside its object) still folds
+    fresh = ObjectGraph(AssociationParams(confirm_detections=1))
+    fresh.associate([boxed(-0.25, 0.25)], [], 2, 0.0)
+    fresh.associate([cut(0.55, 1.05)], [0], 2, 1.0)
+    fresh.associate([bleeding], [0], 2, 10.0, in_view=[0, 1])
+    assert len(fresh.nodes) == 1
+
+
+def boxed(x0: float, x1: float) -> Observation:
+    """A chair view whose points cover the floor box from x0 to x1 (0.5 m deep)."""
+    return Observation("chair", np.array([(x0 + x1) / 2, 0.0, 0.6]), 0.9, 500, 0.5 * (x1 - x0),
+                       box=np.array([x0, -0.25, x1, 0.25]))

@@ -32,22 +32,20 @@
 * *Moves keep their id.* An unmatched observation farther than delta_c from every
   same-category node but within ``move_radius`` of a same-category node that was removed
   earlier in this session is taken to be that object moved: it keeps its id and the
-  event is ``moved`` with the previous position.
-  Identity across a relocation is what lets a user ask "where did chair 12 go?". The
-  other order too: when an older node's absence is confirmed and a node of its category
-  new in this session stands within ``move_radius``, that node is folded into the old
-  one, which moves there (the robot saw the chair's new place before its old one). Neither
-  way beyond delta_c to a place no earlier pass looked at: that object was always there.
-  A wrong guess costs little: the object left behind gets a new id when it is seen.
+  event is ``moved`` with the previous position: identity across a relocation lets a
+  user ask "where did chair 12 go?". The other order too: when an older node's absence is
+  confirmed and a node of its category new in this session stands within ``move_radius``,
+  that node is folded into the old one, which moves there (the robot saw the chair's new
+  place before its old one). Neither way beyond delta_c to a place no earlier pass looked
+  at: that object was always there. A wrong guess costs little: the object left behind
+  gets a new id when it is seen.
 * *Retract, not remove, what was barely seen.* A node matched in at most
   ``retract_observations`` frames in all (by default: never matched again after the two
   sightings of a look-alike that confirmed it) that misses take off is marked retracted:
   the map drops it either way, but the change report does not tell the operator an object
   went (:mod:`bomc_bt.net_changes`).
-* *Updated events are sparse.* A refresh emits ``updated`` only the first time a node is
-  matched in a session or when its position drifted more than ``report_distance`` since
-  the last report, so the history does not grow by one row per node per frame; the
-  store reconciles exact values at the end of each session.
+* *Updated events are sparse*: only at a node's first match in a session or after a drift
+  of ``report_distance`` since the last report (the store reconciles exact values at the end).
 
 Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object seen cut
 off by the image edge has its centroid too low.
@@ -114,13 +112,13 @@ class RobustPolicy:
         pairs.sort()
         matched_nodes: set[int] = set()
         matched_obs: dict[int, int] = {}  # observation index -> the node it matched
-        footprints: dict[int, np.ndarray | None] = {}  # matched nodes' footprints before this frame
+        before: dict[int, tuple] = {}  # matched nodes' footprints and positions before this frame
         for _, vid, j in pairs:
             if vid in matched_nodes or j in matched_obs:
                 continue
             matched_nodes.add(vid)
             matched_obs[j] = vid
-            footprints[vid] = graph.nodes[vid].footprint
+            before[vid] = (graph.nodes[vid].footprint, graph.nodes[vid].position.copy())
             events.extend(self._refresh(graph, graph.nodes[vid], obs[j], session, stamp))
         self.co_observed.note((graph.nodes[v] for v in matched_nodes if v in graph.nodes),
                               self.params.extent_gate * self.params.largest_distance())
@@ -157,7 +155,7 @@ class RobustPolicy:
                 self.extents.grow(graph, placed[-1], o, self.gate(o))
         hidden = set(in_view or ()) - set(exp)
         events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
-                                                    footprints))
+                                                    before))
         return events
 
     def _absorbed(self, o: Observation, near_ids: np.ndarray, taker: dict[int, Observation]) -> bool:
@@ -181,7 +179,7 @@ class RobustPolicy:
 
     def _merge_hidden_duplicates(self, graph: ObjectGraph, pairs: list[Pair], matched: set[int], hidden: set[int],
                                  obs: Sequence[Observation], session: int, stamp: float,
-                                 footprints: dict[int, np.ndarray | None]) -> list[Event]:
+                                 before: dict[int, tuple]) -> list[Event]:
         """Fold into the matched node any same-category node that the same observation also
         covers: unmatched and either hidden (in view, not expected) or lying on the floor
         area the observation's own points cover.
@@ -195,8 +193,10 @@ class RobustPolicy:
         other is removed. A node that was expected but unmatched and lies elsewhere is not
         touched: it may be a second object, and the miss count decides. Nor are two small
         nodes whose whole footprints lie apart (:meth:`NodeExtents.apart`): two chairs side by
-        side, which a view bleeding over both covers; nor two nodes an earlier frame of the
-        pass matched at once (:mod:`bomc_bt.graph.co_observed`).
+        side, which a view bleeding over both covers; nor two nodes a frame of this pass or an
+        earlier one matched at once (:mod:`bomc_bt.graph.co_observed`); nor two nodes an
+        earlier pass kept apart that lie farther apart than one object reaches
+        (:meth:`_reach_each_other`), whichever way the view covers them.
         """
         events: list[Event] = []
         best: dict[int, int] = {}
@@ -207,12 +207,14 @@ class RobustPolicy:
             o, matched_node = obs[j], graph.nodes.get(vid)
             if matched_node is None:  # folded into another node earlier in this loop
                 continue
-            covered = set(self.extents.overlapped(graph, o))
-            covered |= self._hidden_beside(graph, matched_node, o, hidden, session)
+            stood = before[vid][1]  # where the matched node stood before this view moved it
+            covered = {w for w in self.extents.overlapped(graph, o)
+                       if self._reach_each_other(graph, matched_node, stood, graph.nodes[w], o, session)}
+            covered |= self._hidden_beside(graph, matched_node, stood, o, hidden, session)
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
                 if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o) \
-                        or self.extents.apart(v, other, footprints.get(vid)) or self.co_observed.seen_apart(vid, oid):
+                        or self.extents.apart(v, other, before[vid][0]) or self.co_observed.seen_apart(vid, oid):
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
@@ -225,24 +227,26 @@ class RobustPolicy:
                 matched.add(keep.id)
         return events
 
-    def _hidden_beside(self, graph: ObjectGraph, v: Node, o: Observation, hidden: set[int],
+    def _hidden_beside(self, graph: ObjectGraph, v: Node, stood: np.ndarray, o: Observation, hidden: set[int],
                        session: int) -> set[int]:
         """Hidden nodes within ``o``'s gate that ``o`` (matched by ``v``) may show to be ``v``'s
-        object. Two nodes that both an earlier pass kept apart must also lie within that gate
-        of each other: a view between two nodes farther apart than one object reaches is no
-        evidence they are one (lab-b's two cabinets, 1.0 m apart, were folded into one by a
-        view from beyond ``box_range``, with no floor box to tell them apart, whose centre
-        fell between them). A node this pass started is judged by this pass's frames alone
-        (a door's sliver seen once 0.8 m from the door's node still folds into it)."""
-        gate, scale = self.gate(o), graph.index.scale
-        out = set()
-        for w, _ in graph.within(o.category, o.position, gate):
-            if w.id not in hidden:
-                continue
-            older = w.first_session < session and v.first_session < session
-            if not older or dist2_scalar(w.position * scale, v.position * scale) <= gate * gate:
-                out.add(w.id)
-        return out
+        object (:meth:`_reach_each_other`)."""
+        return {w.id for w, _ in graph.within(o.category, o.position, self.gate(o))
+                if w.id in hidden and self._reach_each_other(graph, v, stood, w, o, session)}
+
+    def _reach_each_other(self, graph: ObjectGraph, v: Node, stood: np.ndarray, w: Node, o: Observation,
+                          session: int) -> bool:
+        """Whether ``v`` (at ``stood`` before ``o`` moved it) and ``w``, both covered by ``o``,
+        may be one object by where they stand: two nodes that both an earlier pass kept apart
+        must lie within ``o``'s gate of each other. A view covering two nodes farther apart
+        than one object reaches is no evidence they are one: lab-b's two cabinets, 1.0 m
+        apart, were folded by a far view whose centre fell between them; chairs 0.8 m apart at
+        a table by a view whose floor box, bleeding over both, overlapped both footprints. A
+        node this pass started is judged by this pass's frames alone (a door's sliver seen
+        once 0.8 m from the door's node still folds into it)."""
+        if v.first_session >= session or w.first_session >= session:
+            return True
+        return dist2_scalar(w.position * graph.index.scale, stood * graph.index.scale) <= self.gate(o) ** 2
 
     def _refresh(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float,
                  restart: bool | None = None, extend: bool = False) -> list[Event]:
