@@ -241,7 +241,7 @@ class RobustPolicy:
         must lie within ``o``'s gate of each other. A view covering two nodes farther apart
         than one object reaches is no evidence they are one: lab-b's two cabinets, 1.0 m
         apart, were folded by a far view whose centre fell between them; chairs 0.8 m apart at
-        a table by a view whose floor box, bleeding over both, overlapped both footprints. A
+        a table, by a view that covered both (Environment-A-size floor, seed 7272, pass 2). A
         node this pass started is judged by this pass's frames alone (a door's sliver seen
         once 0.8 m from the door's node still folds into it)."""
         if v.first_session >= session or w.first_session >= session:
