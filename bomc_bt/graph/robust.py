@@ -112,7 +112,7 @@ class RobustPolicy:
         pairs.sort()
         matched_nodes: set[int] = set()
         matched_obs: dict[int, int] = {}  # observation index -> the node it matched
-        before: dict[int, tuple] = {}  # matched nodes' footprints and positions before this frame
+        before: dict[int, tuple[np.ndarray | None, np.ndarray]] = {}  # footprints, positions before the frame
         for _, vid, j in pairs:
             if vid in matched_nodes or j in matched_obs:
                 continue
@@ -179,7 +179,7 @@ class RobustPolicy:
 
     def _merge_hidden_duplicates(self, graph: ObjectGraph, pairs: list[Pair], matched: set[int], hidden: set[int],
                                  obs: Sequence[Observation], session: int, stamp: float,
-                                 before: dict[int, tuple]) -> list[Event]:
+                                 before: dict[int, tuple[np.ndarray | None, np.ndarray]]) -> list[Event]:
         """Fold into the matched node any same-category node that the same observation also
         covers: unmatched and either hidden (in view, not expected) or lying on the floor
         area the observation's own points cover.
