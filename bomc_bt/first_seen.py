@@ -22,9 +22,9 @@ it), so the masks in it are all on the current map; the central store syncs the
 ``progress`` rows with the rest.
 
 At the start of a pass :func:`load_seen_before` takes the union of the masks of every
-earlier recorded pass, widened by ``association.first_seen_margin`` ([m]: an object's
-centre lies a little beyond the floor the view fan reached -- a door in its wall, a
-table's centre behind its near edge), and :meth:`SeenBefore.mark` marks each ``added``
+earlier recorded pass, widened into walls by ``association.first_seen_margin`` ([m]: a
+door's centre lies in its wall, beyond the floor the view fan reached; the floor itself is
+not widened, see :func:`widen_into_walls`), and :meth:`SeenBefore.mark` marks each ``added``
 event at a place outside it with ``{"first_seen": true}`` in the event's ``detail``
 (which travels to the central store with the event).
 :func:`bomc_bt.net_changes.net_changes` then reports the node as ``first_seen``, not
@@ -122,11 +122,27 @@ def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float,
         if mask is None:
             return None
         union |= mask
-    seen = SeenBefore(grid, inflate_mask(union, margin / grid.resolution))
+    seen = SeenBefore(grid, widen_into_walls(union, grid, margin))
     if sighting_radius > 0.0:
         seen.sighted_in = max(earlier)
         seen.sighted = previous_sightings(store, seen.sighted_in, grid, sighting_radius)
     return seen
+
+
+def widen_into_walls(looked: np.ndarray, grid: OccupancyGrid, margin: float) -> np.ndarray:
+    """``looked`` and the cells the map holds as occupied within ``margin`` (m) of it.
+
+    The floor an object newly stands on was seen only if the view fan covered it: an object
+    that stood there all along, undetected, cut the fan at its near face (the fan stops at
+    anything standing, :mod:`bomc_bt.perception.looked`), so its centre lies a little beyond
+    the looked floor. Widening the floor itself by the margin called such objects "added"
+    when a later pass found them: all six false additions of four Environment-A-size floors
+    and a 36 x 28 m office lay 0.07-0.25 m beyond it, every true one inside it. Only a wall
+    is widened into: an object whose centre lies inside one (a door in its wall) was in
+    view where the fan reached the wall's face.
+    """
+    widened = inflate_mask(looked, margin / grid.resolution) & grid.occupied_mask()
+    return looked.astype(bool) | widened
 
 
 def previous_sightings(store, session: int, grid: OccupancyGrid, radius: float) -> dict[str, np.ndarray]:

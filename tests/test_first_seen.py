@@ -13,7 +13,14 @@ import pytest
 from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.change_evaluation import reported_changes, score_changes, true_changes
 from bomc_bt.errors import BomcError
-from bomc_bt.first_seen import FIRST_SEEN, SeenBefore, load_seen_before, previous_sightings, saved_coverage
+from bomc_bt.first_seen import (
+    FIRST_SEEN,
+    SeenBefore,
+    is_first_seen,
+    load_seen_before,
+    previous_sightings,
+    saved_coverage,
+)
 from bomc_bt.graph import AssociationParams, Event, ObjectGraph
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.monitoring import Perception
@@ -109,13 +116,32 @@ def test_the_masks_saved_at_session_ends_are_what_the_next_pass_loads(tmp_path):
     with stored_site(tmp_path / "site.db", {1: left_half(grid)}) as store:
         assert load_seen_before(store, 1, grid, 0.3) is None  # the first pass: nothing marked
         seen = load_seen_before(store, 2, grid, 0.3)
-        assert seen.saw(np.array([[4.0, 5.0], [5.2, 5.0], [5.5, 5.0]])).tolist() == [True, True, False]
+        assert seen.saw(np.array([[4.0, 5.0], [4.95, 5.0], [5.2, 5.0]])).tolist() == [True, True, False]
         store.begin_session(2, {"stamp": 0.0})
         store.end_session(2, "succeeded", {"stamp": 1.0}, (), {coverage_key(2): pack_mask(right)})
         assert load_seen_before(store, 3, grid, 0.0).seen.all()  # the union of both passes
     # read back read-only, as another process would: the same mask
     with SiteStore(tmp_path / "site.db", readonly=True) as store:
         assert np.array_equal(saved_coverage(store, 2, grid.data.shape), right.astype(bool))
+
+
+def test_an_object_just_beyond_the_looked_floor_is_first_seen_one_in_a_wall_beside_it_is_added(tmp_path):
+    """The fan stops at whatever stands on the floor, so an undetected chair cuts it at its
+    near face and its centre lies 0.1-0.3 m beyond: the floor is not widened, and finding the
+    chair later is "first seen". A door's centre lies in its wall, where no fan reaches: the
+    wall within the margin of the looked floor counts as seen, and a new door there is "added"."""
+    grid = grid_10m()
+    grid.data[:60, 50:52] = 100  # a wall 0.2 m thick at x = 5.0-5.2 m, for y < 6 m
+    with stored_site(tmp_path / "site.db", {1: left_half(grid)}) as store:
+        seen = load_seen_before(store, 2, grid, 0.3)
+    chair, door, behind_the_wall = added(1, 5.15), added(2, 5.1), added(3, 5.35)
+    chair.position[1], door.position[1], behind_the_wall.position[1] = 8.0, 3.0, 3.0
+    assert seen.mark([chair, door, behind_the_wall]) == 2
+    assert [is_first_seen(e) for e in (chair, door, behind_the_wall)] == [True, False, True]
+    # widening the floor too (the old rule) would have called the chair an addition
+    old = SeenBefore(grid, inflate_mask(left_half(grid).astype(bool), 3))
+    chair.detail = None
+    assert old.mark([chair]) == 0
 
 
 def test_an_earlier_pass_without_a_saved_mask_means_unknown_and_nothing_is_marked(tmp_path):

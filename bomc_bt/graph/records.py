@@ -161,10 +161,10 @@ class AssociationParams:
     # [-] a detection nearer to where the operator deleted an object of its category than to
     # any node counts only at this confidence or more (bomc_bt.graph.operator_edits)
     readd_confidence: float = 0.95
-    # [m] how far from the floor an earlier pass saw a newly added object may stand and
-    # still count as appearing there ("added", a change); farther it is "first_seen": new to
-    # the map, not a change (bomc_bt.first_seen). About half an object's depth: a door's
-    # centre lies in its wall, a table's beyond the near edge the camera saw
+    # [m] how far into a wall (a cell the map holds as occupied) beyond the floor an earlier
+    # pass saw a newly added object may stand and still count as appearing there ("added", a
+    # change): a door's centre lies in its wall. Anywhere else off that floor it is
+    # "first_seen": new to the map, not a change (bomc_bt.first_seen)
     first_seen_margin: float = 0.3
     # [m] a new node this near where the previous pass detected an object of its category is
     # "first_seen", not "added": the object was there, the map had folded it into a neighbour
