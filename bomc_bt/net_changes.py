@@ -9,7 +9,8 @@ compares each node that had an event in it:
   had when the period began: that is the object the map showed and that is gone. A removed
   node the pass revived once elsewhere (a neighbour's detection taken for it moved) and
   removed again reports the place the operator knew, not the neighbour's;
-  present -> present farther than ``threshold(category)`` along the floor: ``moved``;
+  present -> present farther than ``threshold(category)`` along the floor, not counting
+  shifts the pass marked as its footprint growing (:mod:`bomc_bt.graph.refinement`): ``moved``;
 * anything else (removed and found again, moved away and back, a nudge) is no change;
 * a node folded into another as a duplicate (a removal with ``merged_into``) is no change
   either: the object is still there, under the other node's id;
@@ -39,6 +40,7 @@ import numpy as np
 
 from bomc_bt.first_seen import is_first_seen
 from bomc_bt.graph import Event
+from bomc_bt.graph.refinement import refined_shifts
 
 NET_KINDS = ("removed", "added", "moved")  # the changes
 FIRST_SEEN = "first_seen"  # a node new to the map where no earlier pass looked: not a change
@@ -125,6 +127,7 @@ def net_changes(events: Sequence[Event], since: int | None,
     before = _replay([e for e in events if since is not None and e.session <= since])
     period = [e for e in events if since is None or e.session > since]
     after = _replay(period)
+    refined = refined_shifts(period)
     counts: dict[int, int] = {}
     first_added: dict[int, Event] = {}
     for e in period:
@@ -141,7 +144,8 @@ def net_changes(events: Sequence[Event], since: int | None,
             # along the floor: a centroid's height follows how much of the object the camera
             # saw (a door's top cut off by the image edge), not where the object stands
             distance = float(np.hypot(*(pos[:2] - old[:2])))
-            if distance > threshold(a.category):
+            went = pos[:2] - old[:2] - refined.get(nid, np.zeros(2))  # a refinement is no move
+            if float(np.hypot(*went)) > threshold(a.category):
                 out.append(NetChange("moved", nid, a.category, old, pos, distance, None, None, a.session,
                                      a.stamp, counts[nid]))
         elif was and a.merged_into is None:

@@ -47,6 +47,8 @@ class ObjectGraph:
         self._pending: set[int] = set()  # present nodes with misses > 0
         self._last_miss: dict[int, tuple[int, float]] = {}  # id -> (session, stamp) of last counted miss
         self._removed_now: dict[int, Node] = {}  # removed in the current session (move candidates)
+        # node id: (footprint, position) before the current session first changed it (graph.refinement)
+        self.started: dict[int, tuple[np.ndarray | None, np.ndarray]] = {}
         self._session: int | None = None
         self._changed: dict[int, Node] = {}
         self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
@@ -153,6 +155,7 @@ class ObjectGraph:
         """
         if session != self._session:
             self._removed_now.clear()
+            self.started.clear()
             self._session = session
         return [i for i in dict.fromkeys(expected) if i in self.nodes]
 
@@ -161,8 +164,8 @@ class ObjectGraph:
         """What the graph keeps in memory during a pass besides the nodes the store holds:
         when each node was last seen, counted misses, this session's removals (move
         candidates), reported positions, widened gates, which footprints hold only partial
-        views (and their longest view) and first sightings awaiting
-        confirmation. JSON-able; saved with every frame so a resumed pass continues exactly
+        views (and their longest view), first sightings awaiting confirmation and where
+        each node stood before the pass changed it (refinements). JSON-able; saved with every frame so a resumed pass continues exactly
         (:mod:`bomc_bt.pass_resume`)."""
         tentative = getattr(self.policy, "tentative", None)
         extents = getattr(self.policy, "extents", None)
@@ -177,6 +180,8 @@ class ObjectGraph:
             "tentative": None if tentative is None else tentative.to_json(),
             "extents": None if extents is None else extents.to_json(),
             "co_observed": None if co_observed is None else co_observed.to_json(),
+            "started": {str(i): [None if fp is None else fp.tolist(), p.tolist()]
+                        for i, (fp, p) in self.started.items()},
         }
 
     def keep_apart(self, session: int, pairs: list[tuple[int, int]]) -> None:
@@ -196,6 +201,8 @@ class ObjectGraph:
         self._last_miss = {int(k): (int(v[0]), float(v[1])) for k, v in state.get("last_miss", {}).items()}
         self._removed_now = {i: removed[i] for i in map(int, state.get("removed_now", [])) if i in removed}
         self._reported = {int(k): np.asarray(v, dtype=float) for k, v in state.get("reported", {}).items()}
+        self.started = {int(k): (None if fp is None else np.asarray(fp, dtype=float), np.asarray(p, dtype=float))
+                        for k, (fp, p) in state.get("started", {}).items()}
         for key, gate in state.get("gates", {}).items():
             self.index.widen_gate(int(key), float(gate))
         tentative = getattr(self.policy, "tentative", None)
@@ -250,6 +257,7 @@ class ObjectGraph:
 
     def restore(self, v: Node, position: np.ndarray) -> None:
         """Bring back at ``position`` a node removed in this session: it had moved."""
+        self._keep_start(v)
         del self._removed_now[v.id]
         v.state = PRESENT
         v.position = position
@@ -258,6 +266,7 @@ class ObjectGraph:
     def relocate(self, v: Node, position: np.ndarray) -> None:
         """Move ``v`` to ``position``."""
         position = np.asarray(position, dtype=float)
+        self._keep_start(v)
         self.index.move(v.id, v.category, v.position, position)
         v.position = position
         self._changed[v.id] = v
@@ -300,9 +309,15 @@ class ObjectGraph:
 
     def set_footprint(self, v: Node, box: np.ndarray | None) -> None:
         """Replace ``v``'s footprint (None: unknown)."""
+        self._keep_start(v)
         v.footprint = box
         self.index.set_box(v.id, box)
         self._changed[v.id] = v
+
+    def _keep_start(self, v: Node) -> None:
+        """Remember ``v``'s footprint and position as the session found them (before its first change)."""
+        if v.id not in self.started:
+            self.started[v.id] = (None if v.footprint is None else v.footprint.copy(), v.position.copy())
 
     def widen_gate(self, v: Node, gate: float) -> None:
         """Let ``v``'s own association gate grow to ``gate``: its object showed itself that big."""

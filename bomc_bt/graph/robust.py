@@ -37,15 +37,15 @@
   confirmed and a node of its category new in this session stands within ``move_radius``,
   that node is folded into the old one, which moves there (the robot saw the chair's new
   place before its old one). Neither way beyond delta_c to a place no earlier pass looked
-  at: that object was always there. A wrong guess costs little: the object left behind
-  gets a new id when it is seen.
+  at: that object was always there. A shift while its footprint grew over the old one is
+  no move (:mod:`bomc_bt.graph.refinement`).
 * *Retract, not remove, what was barely seen.* A node matched in at most
   ``retract_observations`` frames in all (by default: never matched again after the two
   sightings of a look-alike that confirmed it) that misses take off is marked retracted:
   the map drops it either way, but the change report does not tell the operator an object
   went (:mod:`bomc_bt.net_changes`).
-* *Updated events are sparse*: only at a node's first match in a session or after a drift
-  of ``report_distance`` since the last report (the store reconciles exact values at the end).
+* *Updated events are sparse*: at a node's first match in a session, after a drift of
+  ``report_distance`` since the last report; the store reconciles exact values at the end.
 
 Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object seen cut
 off by the image edge has its centroid too low.
@@ -66,6 +66,7 @@ from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
+from bomc_bt.graph.refinement import refinements
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.returns import moves_taken_back
 from bomc_bt.graph.tentative import TentativeSightings
@@ -307,14 +308,13 @@ class RobustPolicy:
 
     def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
                          candidate: Callable[[Node], bool]) -> list[Event]:
-        """When the pass ends: each node it removed, paired with a ``candidate`` node it
-        added (:func:`~bomc_bt.graph.relocations.relocation_pairs`), moved there."""
+        """When the pass ends: removals paired with ``candidate`` additions moved (:mod:`.relocations`)."""
         events = self._join_parts(graph, session, stamp)
         removed = [v for v in graph.removed_this_session() if v.first_session < session]
         arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
         for v, arrival in relocation_pairs(removed, arrivals, self.params.relocation_radius):
             events.extend(self._moved_to(graph, v, arrival, session, stamp))
-        return events
+        return events + refinements(graph, graph.started, session, stamp, self.params.distance)
 
     def take_back_moves(self, graph: ObjectGraph, session: int, stamp: float,
                         history: Sequence[Event]) -> list[Event]:

@@ -1,0 +1,66 @@
+"""A node that shifted because more of its object came into view did not move.
+
+A big object's node stands at the middle of the floor its views covered (its footprint,
+:mod:`bomc_bt.graph.extents`), and each pass builds that footprint again from its own views.
+A pass that saw only one end of a table puts the node at that end; the next pass, seeing
+the whole table, puts it at the middle, up to half the table's length away. Reported as
+"moved", that is a change nobody made: on Environment-A-size floors the tables behind
+chairs were the phantom moves left after everything else (seed 7171 pass 2: table-87's
+node went 0.87 m, from a 0.53 m footprint at the table's west end to its whole length;
+seed 7272 pass 2: a table first seen once, 0.17 m of it, went 0.84 m).
+
+The test is the floor itself. An object that moved leaves the floor it stood on: the
+footprint this pass builds at its new place does not hold the old one. When the footprint
+a node ends the pass with holds the one it began the pass with (within the noise pad),
+the object still covers all the floor it covered before, and the shift is a better
+estimate of where it stood all along. At the end of the pass such a node gets an
+``updated`` event whose detail names the position the refinement started from
+(:data:`REFINED_FROM`); :func:`bomc_bt.net_changes.net_changes` measures a move from the
+refined place, so the shift is no change, and a real move in the same period still is.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bomc_bt.graph.footprints import NOISE_PAD, inside
+from bomc_bt.graph.records import Event
+
+if TYPE_CHECKING:
+    from bomc_bt.graph.object_graph import ObjectGraph
+
+REFINED_FROM = "refined_from"  # the key in an ``updated`` event's detail: where the shift began
+
+
+def refinements(graph: ObjectGraph, started: Mapping[int, tuple[np.ndarray | None, np.ndarray]], session: int,
+                stamp: float, threshold: Callable[[str], float]) -> list[Event]:
+    """At the end of a pass: an ``updated`` event, marked refined, for every node of an
+    earlier pass that went farther than ``threshold(category)`` from where this pass
+    ``started`` it while its footprint grew over the one it started with (``started``: node
+    id -> (footprint, position) at the pass's first match of it)."""
+    events = []
+    for node_id, (footprint, position) in sorted(started.items()):
+        v = graph.nodes.get(node_id)
+        if v is None or v.first_session >= session or footprint is None or v.footprint is None:
+            continue  # a node new in this pass is an addition wherever it ends
+        if float(np.hypot(*(v.position[:2] - position[:2]))) <= threshold(v.category):
+            continue
+        if inside(footprint, v.footprint, NOISE_PAD):
+            event = graph.report("updated", v, session, stamp)
+            event.detail = {REFINED_FROM: [round(float(x), 3) for x in position]}
+            events.append(event)
+    return events
+
+
+def refined_shifts(events: Iterable[Event]) -> dict[int, np.ndarray]:
+    """Per node, how far (x, y) its refinements among ``events`` carried it."""
+    out: dict[int, np.ndarray] = {}
+    for e in events:
+        start = (e.detail or {}).get(REFINED_FROM) if e.kind == "updated" else None
+        if start is not None:
+            shift = np.asarray(e.position, dtype=float)[:2] - np.asarray(start, dtype=float)[:2]
+            out[int(e.node_id)] = out.get(int(e.node_id), np.zeros(2)) + shift
+    return out

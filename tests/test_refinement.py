@@ -1,0 +1,75 @@
+"""A table whose node shifted because a pass saw more of it did not move (graph/refinement.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
+from bomc_bt.graph.refinement import REFINED_FROM
+from bomc_bt.net_changes import net_changes
+
+
+def table(x0: float, x1: float) -> Node:
+    """The node pass 1 left of a table whose views covered the floor from x0 to x1."""
+    return Node(0, "table", np.array([(x0 + x1) / 2, 0.0, 0.375]), 0.9, 1, 1, observations=9,
+                footprint=np.array([x0, -0.4, x1, 0.4]))
+
+
+def table_view(x0: float, x1: float) -> Observation:
+    return Observation("table", np.array([(x0 + x1) / 2, 0.0, 0.375]), 0.9, 2000, 0.5 * (x1 - x0),
+                       box=np.array([x0, -0.4, x1, 0.4]))
+
+
+def pass_2(node: Node, views: list[Observation]) -> tuple[ObjectGraph, list[Event]]:
+    """Pass 2 over the pass-1 graph: the table matched in each frame, then the pass's end."""
+    graph = ObjectGraph(AssociationParams(), [node])
+    events = [Event("added", 0, "table", node.position.copy(), 1, 5.0)]
+    for i, o in enumerate(views):
+        events += graph.associate([o], [0], 2, 10.0 + i)
+    events += graph.pair_relocations(2, 20.0)
+    return graph, events
+
+
+def test_a_table_seen_whole_after_one_end_is_no_move_one_carried_off_its_floor_is():
+    # pass 1 saw only the west 0.5 m of a 2 m table (chairs hid the rest); pass 2 sees it
+    # whole: its node goes 0.75 m east, to the middle, and the floor it covers holds the end
+    # pass 1 saw
+    graph, events = pass_2(table(0.0, 0.5), [table_view(0.0, 2.0), table_view(0.0, 2.0)])
+    assert abs(graph.nodes[0].position[0] - 1.0) < 0.05
+    refined = [e for e in events if (e.detail or {}).get(REFINED_FROM) is not None]
+    assert [e.node_id for e in refined] == [0] and refined[0].detail[REFINED_FROM][0] == 0.25
+    assert net_changes(events, 1, lambda _c: 0.7) == []
+    # without the mark the same shift is a move of 0.75 m nobody made
+    unmarked = [e for e in events if all(e is not r for r in refined)]
+    assert [(c.kind, round(c.distance, 2)) for c in net_changes(unmarked, 1, lambda _c: 0.7)] == [("moved", 0.75)]
+
+    # a table seen whole in pass 1 and pushed 0.8 m east before pass 2 stands on other
+    # floor: its views no longer cover its west end, and the move is reported
+    graph, events = pass_2(table(0.0, 2.0), [table_view(0.8, 2.8), table_view(0.8, 2.8)])
+    assert list(graph.nodes) == [0] and abs(graph.nodes[0].position[0] - 1.8) < 0.05
+    assert not [e for e in events if (e.detail or {}).get(REFINED_FROM) is not None]
+    assert [c.kind for c in net_changes(events, 1, lambda _c: 0.7)] == ["moved"]
+
+
+def test_a_refinement_does_not_hide_a_later_move_in_the_same_period():
+    graph, events = pass_2(table(0.0, 0.5), [table_view(0.0, 2.0)])
+    carried = Event("moved", 0, "table", np.array([4.0, 0.0, 0.375]), 3, 30.0, previous=np.array([1.0, 0.0, 0.375]))
+    [change] = net_changes(events + [carried], 1, lambda _c: 0.7)
+    assert change.kind == "moved" and change.old[0] == 0.25 and change.new[0] == 4.0
+
+
+def test_a_resumed_pass_still_knows_where_its_nodes_started():
+    """A pass killed after the first view and resumed from its last frame's resume point
+    (graph from the store, pass state from the point) still marks the refinement."""
+    graph = ObjectGraph(AssociationParams(), [table(0.0, 0.5)])
+    graph.associate([table_view(0.0, 2.0)], [0], 2, 10.0)
+    state, node = graph.pass_state(), graph.nodes[0]
+    resumed = ObjectGraph(AssociationParams(), [Node(0, "table", node.position.copy(), 0.9, 1, 2, observations=10,
+                                                     footprint=node.footprint.copy())])
+    resumed.restore_pass_state(state, {})
+    [event] = resumed.pair_relocations(2, 20.0)
+    assert event.detail[REFINED_FROM][0] == 0.25
+    fresh = ObjectGraph(AssociationParams(), [Node(0, "table", node.position.copy(), 0.9, 1, 2, observations=10,
+                                                   footprint=node.footprint.copy())])
+    fresh.begin(2, [])
+    assert fresh.pair_relocations(2, 20.0) == []  # without the saved start it cannot tell
