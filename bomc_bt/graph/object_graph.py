@@ -165,8 +165,8 @@ class ObjectGraph:
         when each node was last seen, counted misses, this session's removals (move
         candidates), reported positions, widened gates, which footprints hold only partial
         views (and their longest view), first sightings awaiting confirmation and where
-        each node stood before the pass changed it (refinements). JSON-able; saved with every frame so a resumed pass continues exactly
-        (:mod:`bomc_bt.pass_resume`)."""
+        each node stood before the pass changed it (refinements). JSON-able; saved with
+        every frame so a resumed pass continues exactly (:mod:`bomc_bt.pass_resume`)."""
         tentative = getattr(self.policy, "tentative", None)
         extents = getattr(self.policy, "extents", None)
         co_observed = getattr(self.policy, "co_observed", None)
