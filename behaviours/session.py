@@ -35,8 +35,10 @@ class PairRelocations(Leaf):
     """Before the session closes: a move of this pass that a node added later at the old
     place undoes is taken back (:mod:`bomc_bt.graph.returns`: a neighbour found late, not
     the object gone), and a removal and an addition of this pass that were one object moved
-    become one move (:mod:`bomc_bt.graph.relocations`), written to the store at once. A
-    node first seen in this pass (no earlier pass saw its place) is no arrival."""
+    become one move (:mod:`bomc_bt.graph.relocations`), and a node that shifted only because
+    the pass saw more of it is marked refined (:mod:`bomc_bt.graph.refinement`), written to
+    the store at once. A node first seen in this pass (no earlier pass saw its place) is no
+    arrival."""
 
     def update(self) -> Status:
         ctx = self.context
@@ -44,7 +46,7 @@ class PairRelocations(Leaf):
         first_seen = {e.node_id for e in history if is_first_seen(e)}
         taken_back = ctx.graph.take_back_moves(ctx.session, ctx.now(), history)
         paired = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen)
-        events = taken_back + paired
+        events = taken_back + paired + ctx.graph.mark_refinements(ctx.session, ctx.now())
         if events:
             ctx.store.record(events, ctx.graph.drain_changed())
             if ctx.perception is not None:

@@ -26,7 +26,7 @@ def pass_2(node: Node, views: list[Observation]) -> tuple[ObjectGraph, list[Even
     events = [Event("added", 0, "table", node.position.copy(), 1, 5.0)]
     for i, o in enumerate(views):
         events += graph.associate([o], [0], 2, 10.0 + i)
-    events += graph.pair_relocations(2, 20.0)
+    events += graph.pair_relocations(2, 20.0) + graph.mark_refinements(2, 20.0)
     return graph, events
 
 
@@ -67,9 +67,9 @@ def test_a_resumed_pass_still_knows_where_its_nodes_started():
     resumed = ObjectGraph(AssociationParams(), [Node(0, "table", node.position.copy(), 0.9, 1, 2, observations=10,
                                                      footprint=node.footprint.copy())])
     resumed.restore_pass_state(state, {})
-    [event] = resumed.pair_relocations(2, 20.0)
+    [event] = resumed.mark_refinements(2, 20.0)
     assert event.detail[REFINED_FROM][0] == 0.25
     fresh = ObjectGraph(AssociationParams(), [Node(0, "table", node.position.copy(), 0.9, 1, 2, observations=10,
                                                    footprint=node.footprint.copy())])
     fresh.begin(2, [])
-    assert fresh.pair_relocations(2, 20.0) == []  # without the saved start it cannot tell
+    assert fresh.mark_refinements(2, 20.0) == []  # without the saved start it cannot tell

@@ -25,6 +25,7 @@ from bomc_bt.graph.geometry import check_polygon
 from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.graph.paper import PaperPolicy
 from bomc_bt.graph.records import PRESENT, REMOVED, AssociationParams, Event, Node, Observation
+from bomc_bt.graph.refinement import refinements
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.spatial import SpatialIndex
 
@@ -147,6 +148,15 @@ class ObjectGraph:
         may be such an arrival). The paper's policy pairs nothing."""
         pair = getattr(self.policy, "pair_relocations", None)
         return [] if pair is None else pair(self, session, stamp, candidate)
+
+    def mark_refinements(self, session: int, stamp: float) -> list[Event]:
+        """When ``session`` ends, after its relocations are paired: an ``updated`` event marked
+        refined for each older node whose shift was its footprint growing over the one it
+        began the pass with (:mod:`bomc_bt.graph.refinement`). The paper's policy keeps no
+        footprints, so marks nothing."""
+        if self.params.mode == "paper":
+            return []
+        return refinements(self, self.started, session, stamp, self.threshold)
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.
@@ -315,8 +325,9 @@ class ObjectGraph:
         self._changed[v.id] = v
 
     def _keep_start(self, v: Node) -> None:
-        """Remember ``v``'s footprint and position as the session found them (before its first change)."""
-        if v.id not in self.started:
+        """Remember an older ``v``'s footprint and position as the session found them (before
+        its first change); a node this session added is an addition wherever it ends."""
+        if v.id not in self.started and v.first_session != self._session:
             self.started[v.id] = (None if v.footprint is None else v.footprint.copy(), v.position.copy())
 
     def widen_gate(self, v: Node, gate: float) -> None:

@@ -66,7 +66,6 @@ from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
-from bomc_bt.graph.refinement import refinements
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.returns import moves_taken_back
 from bomc_bt.graph.tentative import TentativeSightings
@@ -308,13 +307,14 @@ class RobustPolicy:
 
     def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
                          candidate: Callable[[Node], bool]) -> list[Event]:
-        """When the pass ends: removals paired with ``candidate`` additions moved (:mod:`.relocations`)."""
+        """When the pass ends: each node it removed, paired with a ``candidate`` node it
+        added (:func:`~bomc_bt.graph.relocations.relocation_pairs`), moved there."""
         events = self._join_parts(graph, session, stamp)
         removed = [v for v in graph.removed_this_session() if v.first_session < session]
         arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
         for v, arrival in relocation_pairs(removed, arrivals, self.params.relocation_radius):
             events.extend(self._moved_to(graph, v, arrival, session, stamp))
-        return events + refinements(graph, graph.started, session, stamp, self.params.distance)
+        return events
 
     def take_back_moves(self, graph: ObjectGraph, session: int, stamp: float,
                         history: Sequence[Event]) -> list[Event]:

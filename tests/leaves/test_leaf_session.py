@@ -139,3 +139,22 @@ def test_pair_relocations_takes_back_a_move_onto_a_neighbour_found_late(ctx):
     assert tick(leaf) == Status.SUCCESS and leaf.feedback_message.endswith("1 move(s) taken back: chair #0")
     stored = {n.id: n.position[0] for n in ctx.store.nodes()}
     assert abs(stored[0]) < 1e-9 and abs(stored[1] - 0.75) < 1e-9
+
+
+def test_pair_relocations_marks_a_table_seen_whole_after_one_end_as_refined_in_the_store(ctx):
+    """Pass 1 saw a 2 m table's west 0.5 m; pass 2 sees it whole and its node goes 0.75 m to
+    the middle. The leaf stores the refinement, so the pass reports no move."""
+    from bomc_bt.graph.refinement import REFINED_FROM
+    from bomc_bt.net_changes import net_changes
+
+    table = Node(0, "table", np.array([0.25, 0.0, 0.375]), 0.9, 1, 1, observations=9,
+                 footprint=np.array([0.0, -0.4, 0.5, 0.4]))
+    ctx.store.record([ctx.graph.report("added", table, 1, 5.0)], [table])
+    ctx.graph = ObjectGraph(AssociationParams(), [table])
+    ctx.session = 2
+    whole = Observation("table", np.array([1.0, 0.0, 0.375]), 0.9, 2000, 1.0, box=np.array([0.0, -0.4, 2.0, 0.4]))
+    ctx.store.record(ctx.graph.associate([whole], [0], 2, 10.0), ctx.graph.drain_changed())
+    assert tick(PairRelocations("Pair", None, ctx)) == Status.SUCCESS
+    last = ctx.store.events(session=2)[-1]
+    assert last.kind == "updated" and last.detail[REFINED_FROM][0] == 0.25
+    assert net_changes(ctx.store.events(until=2), 1, ctx.graph.threshold) == []
