@@ -56,11 +56,14 @@ def refinements(graph: ObjectGraph, started: Mapping[int, tuple[np.ndarray | Non
 
 
 def refined_shifts(events: Iterable[Event]) -> dict[int, np.ndarray]:
-    """Per node, how far (x, y) its refinements among ``events`` carried it."""
-    out: dict[int, np.ndarray] = {}
+    """Per node, how far (x, y) its refinements among ``events`` carried it: per session the
+    last one counts (a pass resumed after its end step wrote one marks the same shift again)."""
+    last: dict[tuple[int, int], Event] = {}
     for e in events:
-        start = (e.detail or {}).get(REFINED_FROM) if e.kind == "updated" else None
-        if start is not None:
-            shift = np.asarray(e.position, dtype=float)[:2] - np.asarray(start, dtype=float)[:2]
-            out[int(e.node_id)] = out.get(int(e.node_id), np.zeros(2)) + shift
+        if e.kind == "updated" and (e.detail or {}).get(REFINED_FROM) is not None:
+            last[(int(e.node_id), int(e.session))] = e
+    out: dict[int, np.ndarray] = {}
+    for (node_id, _), e in last.items():
+        shift = np.asarray(e.position, dtype=float)[:2] - np.asarray(e.detail[REFINED_FROM], dtype=float)[:2]
+        out[node_id] = out.get(node_id, np.zeros(2)) + shift
     return out
