@@ -45,10 +45,11 @@ from shared_folder import SHARED
 
 from bomc_bt.config import load_config
 from bomc_bt.coverage_plan import _leg, plan_coverage
-from bomc_bt.geometry import Pose2D
+from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import load_map
 from bomc_bt.planner import GridPlanner
 from bomc_bt.sight import Sight, along_paths
+from bomc_bt.turn_order import end_direction
 from bomc_bt.viewpoints import floor_mask
 from bomc_bt.world import load_world
 
@@ -80,6 +81,26 @@ def leg_length(grid, start: Pose2D, stops: list, planner_params) -> float:
         path = _leg(planner, a, b)
         path = np.array([a, b]) if path is None else np.asarray(path)
         total += float(np.hypot(*np.diff(path, axis=0).T).sum())
+    return total
+
+
+def turning(grid, start: Pose2D, waypoints: list[Pose2D], planner_params) -> float:
+    """Radians the robot turns on the spot driving the plan: at each stop through its
+    headings, and at each end of a leg between the leg's direction there and the heading
+    it leaves from or arrives at (a differential-drive robot faces its path to drive)."""
+    planner = GridPlanner(grid, planner_params)
+    total, yaw, at = 0.0, start.yaw, np.asarray(start.xy, float)
+    for w in waypoints:
+        to = np.asarray(w.xy, float)
+        if np.hypot(*(to - at)) > 1e-9:
+            path = _leg(planner, at, to)
+            path = np.array([at, to]) if path is None else np.asarray(path)
+            leave, arrive = end_direction(path, True), end_direction(path, False)
+            if leave is not None and arrive is not None:
+                total += abs(wrap_angle(leave - yaw))
+                yaw = arrive
+        total += abs(wrap_angle(w.yaw - yaw))
+        yaw, at = w.yaw, to
     return total
 
 
@@ -132,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     if not 0.0 < reach <= 30.0:
         ap.error("--reach must be in (0, 30] m")
     print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'plan cpu s':>10s} "
-          f"{'near':>9s}")
+          f"{'near':>9s} {'turn rad':>8s}")
     with tempfile.TemporaryDirectory() as tmp:
         for name, map_yaml, start, known in floors(args, Path(tmp)):
             grid = load_map(map_yaml)
@@ -144,7 +165,8 @@ def main(argv: list[str] | None = None) -> int:
             seen = seen_share(grid, start, plan.viewpoints, params, config.sim.planner, reach)
             stops, headings = len(plan.viewpoints), len(plan.plan.waypoints)
             near = f"{plan.known_near}/{plan.known}"
-            print(f"{name:18s} {stops:6d} {headings:8d} {km:8.3f} {seen:10.3f} {cpu:10.1f} {near:>9s}")
+            turn = turning(grid, start, plan.plan.waypoints, config.sim.planner)
+            print(f"{name:18s} {stops:6d} {headings:8d} {km:8.3f} {seen:10.3f} {cpu:10.1f} {near:>9s} {turn:8.0f}")
     return 0
 
 

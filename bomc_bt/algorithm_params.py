@@ -240,7 +240,7 @@ class BudgetParams:
     # every region alike), "cut" (the traversal.plan tour in order, cut when time runs out)
     strategy: Literal["expected_changes", "uniform", "cut"] = "expected_changes"
     speed: float = 0.55  # [m/s] average driving speed the planner assumes (slowing, turning included)
-    heading_time: float = 2.7  # [s] planned time per heading at a stop (turn, look around, dwell; calibrate_budget.py)
+    heading_time: float = 2.55  # [s] planned time per heading at a stop (turn, look around, dwell; calibrate_budget.py)
     margin: float = 0.05  # [-] share of the budget kept back for what the plan cannot foresee
     # [-] a budget at most this share short of a typical full pass (the median of the last
     # three) runs the full pass: full passes vary by about this much from one to the next

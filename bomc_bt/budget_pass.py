@@ -112,8 +112,8 @@ def plan_budget_pass(grid: OccupancyGrid, dock: Pose2D, pose: Pose2D, config: Co
         count = min(2 * count, MAX_SHORTLIST)
     waypoints: list[Pose2D] = []
     home: list[float] = []
-    for s, views in zip(tour.order, stop_headings(grid, cands, weights, tour.order, pose, config.traversal),
-                        strict=True):
+    turned = stop_headings(grid, planner, cands, weights, tour.order, pose, config.traversal, dock.xy)
+    for s, views in zip(tour.order, turned, strict=True):
         waypoints += views
         home += [float(dist[s + 1, 0]) if np.isfinite(dist[s + 1, 0]) else 1e6] * len(views)
     waypoints.append(dock)

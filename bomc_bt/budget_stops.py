@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bomc_bt.algorithm_params import TraversalParams
-from bomc_bt.coverage_plan import _turn_order, _world, candidate_places
+from bomc_bt.coverage_plan import _world, candidate_places, turned_stops
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.planner import GridPlanner
@@ -129,26 +129,23 @@ def shortlist(cands: StopCandidates, weights: np.ndarray, count: int, start_xy, 
     return chosen
 
 
-def stop_headings(grid: OccupancyGrid, cands: StopCandidates, weights: np.ndarray, order: list[int], start: Pose2D,
-                  params: TraversalParams) -> list[list[Pose2D]]:
+def stop_headings(grid: OccupancyGrid, planner: GridPlanner, cands: StopCandidates, weights: np.ndarray,
+                  order: list[int], start: Pose2D, params: TraversalParams, end_xy=None) -> list[list[Pose2D]]:
     """Per stop of the tour (``order``, indices into ``cands``): the poses it turns through,
-    facing the valued targets it is the first of the tour to see."""
+    facing the valued targets it is the first of the tour to see, in the order that turns
+    least between the legs in and out (the last leg goes to ``end_xy``, the dock)."""
     hfov = math.radians(params.hfov_deg)
     min_count = max(1, int(math.ceil((params.min_gain / cands.target_step) ** 2 - 1e-9)))
     left = np.asarray(weights, dtype=float) > 0
-    at = np.asarray(start.xy, dtype=float)
-    out: list[list[Pose2D]] = []
+    headings: list[list[float]] = []
     for s in order:
         p = cands.xy[s]
         mine = cands.views[s][left[cands.views[s]]]
         left[cands.views[s]] = False
         targets = cands.target_xy(grid, mine)
         bearings = np.arctan2(targets[:, 1] - p[1], targets[:, 0] - p[0])
-        arrive = math.atan2(p[1] - at[1], p[0] - at[0]) if np.hypot(*(p - at)) > 1e-9 else start.yaw
-        headings = headings_for(bearings, hfov, min_count, params.max_headings) or [arrive]
-        out.append([Pose2D(float(p[0]), float(p[1]), h) for h in _turn_order(headings, arrive)])
-        at = p
-    return out
+        headings.append(headings_for(bearings, hfov, min_count, params.max_headings))
+    return turned_stops(planner, start, cands.xy[list(order)].reshape(-1, 2), headings, end_xy)
 
 
 def heading_counts(grid: OccupancyGrid, cands: StopCandidates, weights: np.ndarray,

@@ -47,12 +47,13 @@ import numpy as np
 from bomc_bt.algorithm_params import PlannerParams, TraversalParams
 from bomc_bt.coverage_known import KnownTargets, index_ranges
 from bomc_bt.coverage_prune import drop_redundant_stops
-from bomc_bt.geometry import Pose2D, wrap_angle
+from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.path_matrix import path_length_matrix
 from bomc_bt.planner import GridPlanner
 from bomc_bt.sight import Sight, headings_for
 from bomc_bt.traversal import TraversalPlan, or_opt_route, path_length, two_opt_route
+from bomc_bt.turn_order import end_direction, turn_order
 from bomc_bt.viewpoints import floor_mask
 
 
@@ -118,19 +119,16 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
         chosen, credited, order, dist, covered = _look_near_at_nodes(planner, sight, nodes, start.xy, views, xy,
                                                                      chosen, credited, order, dist, covered,
                                                                      params, hfov)
-    waypoints: list[Pose2D] = []
-    stops: list[tuple[float, float]] = []
-    at = np.asarray(start.xy, dtype=float)
+    headings: list[list[float]] = []
     for j in order:
         p = xy[chosen[j]]
         targets = nodes.target_xy(credited[j], lambda flat: _raster_world(grid, flat, floor.shape[1], k))
         bearings = np.arctan2(targets[:, 1] - p[1], targets[:, 0] - p[0])
-        arrive = math.atan2(p[1] - at[1], p[0] - at[0]) if np.hypot(*(p - at)) > 1e-9 else start.yaw
-        headings = headings_for(bearings, hfov, min_count, params.max_headings) or [arrive]
-        waypoints += [Pose2D(float(p[0]), float(p[1]), h) for h in _turn_order(headings, arrive)]
-        stops.append((float(p[0]), float(p[1])))
-        at = p
-    pts = np.array(stops, dtype=float).reshape(-1, 2)
+        headings.append(headings_for(bearings, hfov, min_count, params.max_headings))
+    pts = np.array([xy[chosen[j]] for j in order], dtype=float).reshape(-1, 2)
+    # after the last stop come Cover Gaps' viewpoints, not yet planned: no departure direction
+    waypoints = [pose for poses in turned_stops(planner, start, pts, headings) for pose in poses]
+    stops = [(float(x), float(y)) for x, y in pts]
     legs = [0] + [j + 1 for j in order]
     grid_length = float(sum(dist[a, b] for a, b in zip(legs[:-1], legs[1:], strict=True)))
     plan = TraversalPlan(waypoints, path_length(start.xy, pts), grid_length)
@@ -334,12 +332,36 @@ def order_stops(planner: GridPlanner, start_xy, views: list[Pose2D], params: Tra
     return [views[i] for i in order]
 
 
-def _turn_order(headings: list[float], arrive: float) -> list[float]:
-    """Headings from the one nearest the arrival direction on, each time the nearest turn."""
-    left, out, at = list(headings), [], arrive
-    while left:
-        nxt = min(left, key=lambda h: abs(wrap_angle(h - at)))
-        left.remove(nxt)
-        out.append(nxt)
-        at = nxt
+def turned_stops(planner: GridPlanner, start: Pose2D, stops: np.ndarray, headings: list[list[float]],
+                 end_xy=None) -> list[list[Pose2D]]:
+    """Per stop of a tour, the poses it turns through: its ``headings`` in the order that
+    turns least (:func:`bomc_bt.turn_order.turn_order`) from the direction the leg into it
+    arrives in to the direction the leg out of it leaves in (to ``end_xy`` after the last
+    stop, if given). A stop with no heading faces the way it arrived."""
+    pts = [np.asarray(start.xy, dtype=float)] + [np.asarray(p, dtype=float)[:2] for p in stops]
+    if end_xy is not None:
+        pts.append(np.asarray(end_xy, dtype=float)[:2])
+    legs = [_leg(planner, a, b) if np.hypot(*(b - a)) > 1e-9 else None for a, b in zip(pts[:-1], pts[1:], strict=True)]
+    out: list[list[Pose2D]] = []
+    facing = start.yaw
+    for i, hs in enumerate(headings):
+        p = pts[i + 1]
+        arrive = _direction(legs[i], pts[i], p, at_start=False)
+        arrive = facing if arrive is None else arrive
+        depart = _direction(legs[i + 1], p, pts[i + 2], at_start=True) if i + 1 < len(legs) else None
+        ordered = turn_order(hs, arrive, depart) if hs else [arrive]
+        out.append([Pose2D(float(p[0]), float(p[1]), h) for h in ordered])
+        facing = ordered[-1]
     return out
+
+
+def _direction(leg: np.ndarray | None, a: np.ndarray, b: np.ndarray, at_start: bool) -> float | None:
+    """The direction a leg from a to b leaves (``at_start``) or arrives in; the straight line's
+    when no path was found; None for a leg of no length."""
+    if np.hypot(*(b - a)) <= 1e-9:
+        return None
+    if leg is not None:
+        d = end_direction(leg, at_start)
+        if d is not None:
+            return d
+    return math.atan2(b[1] - a[1], b[0] - a[0])
