@@ -59,6 +59,13 @@ class CoObserved:
             if nodes[i].category == nodes[j].category:
                 self.pairs.add((nodes[i].id, nodes[j].id))
 
+    def add(self, a: int, b: int | None) -> None:
+        """Record that nodes ``a`` and ``b`` (None: nothing to record) are two objects: the
+        first sighting of ``a`` stood clear of ``b``'s own view in one frame
+        (:meth:`TentativeSightings.claims <bomc_bt.graph.tentative.TentativeSightings.claims>`)."""
+        if b is not None and b != a:
+            self.pairs.add((min(a, b), max(a, b)))
+
     def seen_apart(self, a: int, b: int) -> bool:
         return (min(a, b), max(a, b)) in self.pairs
 

@@ -1,54 +1,46 @@
-"""Robust association: our extension of Algorithm 2 where the paper names its own limitations
-(occlusion, missed detections, relocated objects).
+"""Robust association: our extension of Algorithm 2 where the paper names its limitations (occlusion, misses, moves).
 
-* *One-to-one matching.* Observations and nodes of a category are paired greedily by
-  distance (shortest pair first, ties by node id then observation order) among pairs
-  within delta_c. In the paper one detection can keep two nearby nodes alive; here a
-  duplicate node that never gets its own detection is eventually removed.
-* *Refresh.* A matched node moves towards the observation by a running average with
-  weight ``position_smoothing`` (centroids from single frames are noisy, a moving
-  average converges on the object), keeps the maximum confidence seen (the paper's
-  attribute is the detection score; the best view is the most informative), and
-  records ``last_session``, ``observations`` and resets ``misses``.
-* *Confirm before deleting.* An expected node that is not matched gains a miss, at most
-  one per ``confirm_interval`` seconds of robot time (so a burst of frames at one spot
-  counts once), and is removed only at ``confirm_misses`` consecutive misses. A single
-  missed detection (motion blur, a person walking past) no longer deletes an object.
-  Misses are weighed by how often the frames that expected the node did see it
-  (:meth:`RobustPolicy.misses_needed`): an object the detector often misses from where
-  the robot passes needs a longer run of misses, so a flicker is not a removal.
+* *One-to-one matching.* Observations and nodes of a category are paired greedily by distance (shortest pair
+  first, ties by node id then observation order) among pairs within delta_c. In the paper one detection can
+  keep two nearby nodes alive; here a duplicate node that never gets its own detection is eventually removed.
+* *Refresh.* A matched node moves towards the observation by a running average with weight
+  ``position_smoothing`` (centroids from single frames are noisy, a moving average converges on the object),
+  keeps the maximum confidence seen (the paper's attribute is the detection score; the best view is the most
+  informative), and records ``last_session``, ``observations`` and resets ``misses``.
+* *Confirm before deleting.* An expected node that is not matched gains a miss, at most one per
+  ``confirm_interval`` seconds of robot time (so a burst of frames at one spot counts once), and is removed
+  only at ``confirm_misses`` consecutive misses. A single missed detection (motion blur, a person walking
+  past) no longer deletes an object. Misses are weighed by how often the frames that expected the node did see
+  it (:meth:`RobustPolicy.misses_needed`): an object the detector often misses from where the robot passes
+  needs a longer run of misses, so a flicker is not a removal.
 * *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in
   ``confirm_detections`` frames.
-* *One object, one label* (:mod:`bomc_bt.graph.confusions`): a new sighting within
-  ``relabel_radius`` of a node of another category counts only in a frame that matched
-  that node.
-* *No duplicates.* An unmatched observation within delta_c of a same-category node
-  (which then has been matched by a closer observation) is absorbed, as in the paper,
-  unless its floor box lies clear of that closer view's: a frame names each object once.
-  Big objects earn wider gates and footprints (:mod:`bomc_bt.graph.extents`).
-* *Neighbours stay apart* (``separate_neighbours``). A view whose floor box lies clear of
-  a small node's footprint is another object, however near (chairs 0.8 m apart round a
-  table, delta_c 0.7 m), once that footprint holds a whole view (not only cut-off ones).
-* *Moves keep their id.* An unmatched observation farther than delta_c from every
-  same-category node but within ``move_radius`` of a same-category node that was removed
-  earlier in this session is taken to be that object moved: it keeps its id and the
-  event is ``moved`` with the previous position: identity across a relocation lets a
-  user ask "where did chair 12 go?". The other order too: when an older node's absence is
-  confirmed and a node of its category new in this session stands within ``move_radius``,
-  that node is folded into the old one, which moves there (the robot saw the chair's new
-  place before its old one). Neither way beyond delta_c to a place no earlier pass looked
-  at: that object was always there. A shift while its footprint grew over the old one is
-  no move (:mod:`bomc_bt.graph.refinement`).
-* *Retract, not remove, what was barely seen.* A node matched in at most
-  ``retract_observations`` frames in all (by default: never matched again after the two
-  sightings of a look-alike that confirmed it) that misses take off is marked retracted:
-  the map drops it either way, but the change report does not tell the operator an object
-  went (:mod:`bomc_bt.net_changes`).
-* *Updated events are sparse*: at a node's first match in a session, after a drift of
-  ``report_distance`` since the last report; the store reconciles exact values at the end.
+* *One object, one label* (:mod:`bomc_bt.graph.confusions`): a new sighting within ``relabel_radius`` of a
+  node of another category counts only in a frame that matched that node.
+* *No duplicates.* An unmatched observation within delta_c of a same-category node (which then has been
+  matched by a closer observation) is absorbed, as in the paper, unless its floor box lies clear of that
+  closer view's: a frame names each object once. Big objects earn wider gates and footprints
+  (:mod:`bomc_bt.graph.extents`).
+* *Neighbours stay apart* (``separate_neighbours``). A view whose floor box lies clear of a small node's
+  footprint is another object, however near (chairs 0.8 m apart round a table, delta_c 0.7 m), once that
+  footprint holds a whole view (not only cut-off ones). A view nearer a sighting begun beside a node's own view
+  of one frame goes to that sighting, not to the node (``TentativeSightings.claims``).
+* *Moves keep their id.* An unmatched observation farther than delta_c from every same-category node but
+  within ``move_radius`` of a same-category node that was removed earlier in this session is taken to be that
+  object moved: it keeps its id and the event is ``moved`` with the previous position: identity across a
+  relocation lets a user ask "where did chair 12 go?". The other order too: when an older node's absence is
+  confirmed and a node of its category new in this session stands within ``move_radius``, that node is folded
+  into the old one, which moves there (the robot saw the chair's new place before its old one). Neither way
+  beyond delta_c to a place no earlier pass looked at: that object was always there. A shift while its
+  footprint grew over the old one is no move (:mod:`bomc_bt.graph.refinement`).
+* *Retract, not remove, what was barely seen.* A node matched in at most ``retract_observations`` frames in
+  all (by default: never matched again after the two sightings of a look-alike that confirmed it) that misses
+  take off is marked retracted: the map drops it either way, but the change report does not tell the operator
+  an object went (:mod:`bomc_bt.net_changes`).
+* *Updated events are sparse*: at a node's first match in a session, after a drift of ``report_distance``
+  since the last report; the store reconciles exact values at the end.
 
-Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object seen cut
-off by the image edge has its centroid too low.
+Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object cut off by the image edge sits low.
 """
 
 from __future__ import annotations
@@ -105,7 +97,7 @@ class RobustPolicy:
         weights = dict(zip(expected, miss_weights, strict=True)) if miss_weights is not None else {}
         obs, exp = observations, graph.begin(session, expected)
         events: list[Event] = []
-        near = self._near(graph, obs)  # one vectorised pass, graph as it stood at the frame's start
+        near = self._near(graph, obs, stamp)  # one vectorised pass, graph as it stood at the frame's start
         pairs: list[Pair] = []
         for j, (ids, d2) in enumerate(near):
             pairs.extend(zip(d2.tolist(), ids.tolist(), [j] * len(ids), strict=True))
@@ -131,6 +123,7 @@ class RobustPolicy:
                 events.extend(self._miss(graph, graph.nodes[vid], session, stamp, weights.get(vid, 1.0)))
         taker = {vid: obs[j] for j, vid in matched_obs.items()}  # the view each matched node took
         fresh: list[int] = []  # observations of objects the graph does not hold
+        beside: list[int | None] = []  # per fresh one, a node whose view of this frame stood clear of it
         for j, o in enumerate(obs):
             if j in matched_obs or self._absorbed(o, near[j][0], taker):
                 continue
@@ -142,17 +135,20 @@ class RobustPolicy:
                 continue
             if not confused(graph, o, matched_nodes, self.params.relabel_radius):
                 fresh.append(j)
-        confirmed = self.tentative.confirm_frame([obs[j] for j in fresh], [self.gate(obs[j]) for j in fresh], stamp)
+                beside.append(next((int(v) for v in near[j][0] if int(v) in taker), None))
+        confirmed = self.tentative.confirm_frame([obs[j] for j in fresh], [self.gate(obs[j]) for j in fresh], stamp,
+                                                 beside)
         placed: list[Node] = []  # nodes added or moved in this frame
-        for j in (j for j, ok in zip(fresh, confirmed, strict=True) if ok):
+        for k, j in enumerate(fresh):
             o = obs[j]
-            if near_any(o, placed, self.gate(o), graph.index.scale):
+            if not confirmed[k] or near_any(o, placed, self.gate(o), graph.index.scale):
                 continue
             moved = self._move_candidate(graph, o)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
             placed.append(graph.nodes[events[-1].node_id])
             if not moved:
                 self.extents.grow(graph, placed[-1], o, self.gate(o))
+                self.co_observed.add(placed[-1].id, self.tentative.beside_of[k])  # its first frame showed both
         hidden = set(in_view or ()) - set(exp)
         events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
                                                     before))
@@ -163,17 +159,21 @@ class RobustPolicy:
         this frame took (as in the paper); not when it lies beside each such view."""
         return len(near_ids) > 0 and not self.extents.beside(o, [taker[int(v)] for v in near_ids if int(v) in taker])
 
-    def _near(self, graph: ObjectGraph, obs: Sequence[Observation]) -> list[tuple[np.ndarray, np.ndarray]]:
+    def _near(self, graph: ObjectGraph, obs: Sequence[Observation], stamp: float
+              ) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per observation: ids and squared distances of the nodes it may match (not those
-        whose small object's footprint its view lies clear of: a neighbour, not the same)."""
+        whose small object's footprint its view lies clear of: a neighbour, not the same;
+        nor one beside which a nearer sighting waits: :meth:`TentativeSightings.claims`)."""
         gates = [self.gate(o) for o in obs]
         reaches = [max(self.extents.reach(o), g) for o, g in zip(obs, gates, strict=True)]
         boxes = [o.box for o in obs] if self.extents.boxes else None
         near = graph.index.within_many([o.category for o in obs], [o.position for o in obs], reaches, gates,
                                        boxes, self.params.footprint_overlap)
         out = []
-        for o, (ids, d2) in zip(obs, near, strict=True):
-            keep = [not self.extents.separate(graph.nodes[int(i)], o) for i in ids]
+        for o, g, (ids, d2) in zip(obs, gates, near, strict=True):
+            keep = [not self.extents.separate(graph.nodes[int(i)], o)
+                    and not self.tentative.claims(o, int(i), float(np.sqrt(d)), g, stamp)
+                    for i, d in zip(ids, d2, strict=True)]
             out.append((ids, d2) if all(keep) else (ids[keep], d2[keep]))
         return out
 

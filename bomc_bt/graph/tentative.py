@@ -26,6 +26,9 @@ class Sighting:
     count: int  # sightings so far
     last: float  # robot time of the latest sighting
     first: float  # robot time of the first sighting
+    # a node whose own view, in the frame of the first sighting, stood clear of this one:
+    # two objects side by side, this one not yet in the graph (see ``claims``)
+    beside: int | None = None
 
 
 class TentativeSightings:
@@ -36,6 +39,8 @@ class TentativeSightings:
         self.scale = scale  # (3,) distance weights, as the graph's index uses them
         self.waiting: list[Sighting] = []
         self._session: int | None = None
+        # per observation of the last confirm_frame: the ``beside`` of the sighting it confirmed
+        self.beside_of: list[int | None] = []
 
     def begin(self, session: int) -> None:
         """Sightings of an earlier session never confirm one of this session."""
@@ -47,14 +52,31 @@ class TentativeSightings:
         """The sightings waiting, JSON-able (a resumed pass picks them up again)."""
         return {"session": self._session,
                 "waiting": [{"category": t.category, "position": t.position.tolist(), "count": t.count,
-                             "last": t.last, "first": t.first} for t in self.waiting]}
+                             "last": t.last, "first": t.first, "beside": t.beside} for t in self.waiting]}
 
     def restore(self, data: dict) -> None:
         self._session = data.get("session")
         self.waiting = [Sighting(w["category"], np.asarray(w["position"], dtype=float), int(w["count"]),
-                                 float(w["last"]), float(w["first"])) for w in data.get("waiting", [])]
+                                 float(w["last"]), float(w["first"]), w.get("beside"))
+                        for w in data.get("waiting", [])]
 
-    def confirm_frame(self, observations: Sequence[Observation], gates: Sequence[float], stamp: float) -> list[bool]:
+    def claims(self, o: Observation, node_id: int, node_distance: float, gate: float, stamp: float) -> bool:
+        """Whether ``o`` belongs to a waiting sighting begun beside node ``node_id`` rather
+        than to that node: the sighting is nearer ``o`` than the node (``node_distance``,
+        scaled as the graph's index) and within ``gate``.
+
+        A frame that shows two chairs apart proves two objects, but the second only waits
+        here while the first chair's node lies within delta_c of both; without this, the
+        next frame that shows the second chair alone drags that node over to it. Chairs
+        0.8 m apart at a table, both cut off by it (so the node's footprint is no proof):
+        one node swung between the two and the second chair was never mapped (issue 17,
+        Environment-A-size floor, seed 9393, chair-79 beside chair-155)."""
+        return any(t.beside == node_id and t.category == o.category and stamp - t.last <= self.params.tentative_ttl
+                   and (d := float(np.linalg.norm((t.position - o.position) * self.scale))) <= gate
+                   and d < node_distance for t in self.waiting)
+
+    def confirm_frame(self, observations: Sequence[Observation], gates: Sequence[float], stamp: float,
+                      beside: Sequence[int | None] | None = None) -> list[bool]:
         """Per new sighting of one frame, whether it is now seen often enough to be added (then
         its ``position`` becomes the mean of its sightings); the others are remembered or
         counted as sightings.
@@ -65,8 +87,10 @@ class TentativeSightings:
         neighbour 0.8 m away had started, while the frame's view of that neighbour stood
         beside it: one node at the two chairs' midpoint, and the second chair never mapped
         (issue 17: chair-152 of a static Environment-A-size floor, seed 5353, one of the 7
-        "merged" misses of its first pass)."""
+        "merged" misses of its first pass). ``beside`` (per observation, a node whose view of
+        this frame stood clear of it) marks the sightings it begins (:meth:`claims`)."""
         need = self.params.confirm_detections
+        self.beside_of = [None] * len(observations)
         if need <= 1:
             return [True] * len(observations)
         self.waiting = [t for t in self.waiting if stamp - t.last <= self.params.tentative_ttl]
@@ -88,10 +112,11 @@ class TentativeSightings:
             mean = (t.position * (count - 1) + o.position) / count
             if count >= need:
                 o.position, out[j] = mean, True
+                self.beside_of[j] = t.beside
                 done.add(k)
             else:
-                self.waiting[k] = Sighting(t.category, mean, count, stamp, t.first)
+                self.waiting[k] = Sighting(t.category, mean, count, stamp, t.first, t.beside)
         self.waiting = [t for k, t in enumerate(self.waiting) if k not in done]
-        self.waiting.extend(Sighting(o.category, o.position.copy(), 1, stamp, stamp)
+        self.waiting.extend(Sighting(o.category, o.position.copy(), 1, stamp, stamp, beside[j] if beside else None)
                             for j, o in enumerate(observations) if j not in used)
         return out
