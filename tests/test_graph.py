@@ -89,6 +89,29 @@ def test_robust_keeps_node_missed_fewer_than_confirm_times():
     assert 1 not in g.nodes
 
 
+def test_a_run_of_misses_from_one_camera_place_removes_nothing_until_a_second_place_confirms_it():
+    """A robot standing at a doorway misses the door frame after frame (issue 17: seed 9292
+    pass 3, a present door's node removed within 1 s, all three misses from one spot). With
+    ``miss_spacing`` those frames are one look: the node stays while the camera stands there,
+    and goes at the first miss from a place that far away."""
+    from dataclasses import replace
+    g = ObjectGraph(replace(ROBUST, miss_spacing=0.2), [node(0, "door", 0, 0)])
+    here = np.array([0.0, -1.1])
+    for t in (0.0, 0.5, 1.0, 1.5, 2.0):
+        assert g.associate([], [0], 1, t, camera=here + [0.01 * t, 0.0]) == []
+    assert g.nodes[0].misses == 5
+    assert kinds(g.associate([], [0], 1, 2.5, camera=here + [0.3, 0.0])) == [("removed", 0)]
+    seen_between = ObjectGraph(replace(ROBUST, miss_spacing=0.2), [node(0, "door", 0, 0)])
+    for t in (0.0, 0.5):
+        seen_between.associate([], [0], 1, t, camera=here)
+    seen_between.associate([obs("door", 0.0, 0.0)], [0], 1, 1.0, camera=here)  # seen: the run is over
+    for t, dx in ((1.5, 0.3), (2.0, 0.3)):  # a new run, all from a second spot
+        assert seen_between.associate([], [0], 1, t, camera=here + [dx, 0.0]) == []
+    plain = ObjectGraph(ROBUST, [node(0, "door", 0, 0)])  # miss_spacing 0 (the default): time alone
+    events = [e for t in (0.0, 0.5, 1.0) for e in plain.associate([], [0], 1, t, camera=here)]
+    assert kinds(events) == [("removed", 0)]
+
+
 def test_robust_move_seen_at_the_new_place_first_keeps_the_old_id():
     """Session 2: the chair moved 2 m; the robot sees its new place first (a new node), then
     its old place empty. The old node moves there, the new one is folded in: one move."""

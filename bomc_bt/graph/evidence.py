@@ -12,6 +12,7 @@ node's own detection rate makes convincing.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 
@@ -21,6 +22,8 @@ class DetectionRecord:
     missed: float = 0.0  # miss weight before the current run of misses
     run: float = 0.0  # miss weight of the current run
     last_seen: float = -math.inf  # robot time of the last counted detection
+    run_from: tuple[float, float] | None = None  # camera (x, y) of the current run's first miss
+    run_spread: float = 0.0  # m: farthest camera place of the run from run_from (inf: no places given)
 
 
 class MissEvidence:
@@ -32,17 +35,28 @@ class MissEvidence:
     def seen(self, node_id: int, stamp: float, interval: float) -> None:
         """An expected frame detected the node: count it (once per ``interval``), end the run."""
         r = self._records.setdefault(node_id, DetectionRecord())
-        r.missed += r.run
-        r.run = 0.0
+        self._end_run(r)
         if stamp - r.last_seen >= interval:
             r.seen += 1.0
             r.last_seen = stamp
 
-    def missed(self, node_id: int, weight: float) -> float:
-        """A counted miss of ``weight``; returns the run's weight."""
+    def missed(self, node_id: int, weight: float, camera: Sequence[float] | None = None) -> float:
+        """A counted miss of ``weight``, seen from ``camera`` (x, y); returns the run's weight."""
         r = self._records.setdefault(node_id, DetectionRecord())
+        if camera is None:
+            r.run_spread = math.inf
+        elif r.run == 0.0 or r.run_from is None:
+            r.run_from = (float(camera[0]), float(camera[1]))
+        else:
+            r.run_spread = max(r.run_spread, math.hypot(camera[0] - r.run_from[0], camera[1] - r.run_from[1]))
         r.run += weight
         return r.run
+
+    def spread(self, node_id: int) -> float:
+        """How far apart (m) the camera places of the node's current run of misses lie, from
+        its first: one place is one look, however many frames it took (inf: places unknown)."""
+        r = self._records.get(node_id)
+        return 0.0 if r is None else r.run_spread
 
     def run(self, node_id: int) -> float:
         r = self._records.get(node_id)
@@ -52,8 +66,13 @@ class MissEvidence:
         """The node left the graph: its run is over."""
         r = self._records.get(node_id)
         if r is not None:
-            r.missed += r.run
-            r.run = 0.0
+            self._end_run(r)
+
+    @staticmethod
+    def _end_run(r: DetectionRecord) -> None:
+        r.missed += r.run
+        r.run = 0.0
+        r.run_from, r.run_spread = None, 0.0
 
     def detection_rate(self, node_id: int, prior: float, weight: float) -> float:
         """How often the frames that expected the node saw it before its current run, with

@@ -120,6 +120,7 @@ class ObjectGraph:
     def associate(
         self, observations: list[Observation], expected: list[int], session: int, stamp: float,
         in_view: list[int] | None = None, miss_weights: Sequence[float] | None = None,
+        camera: np.ndarray | None = None,
     ) -> list[Event]:
         """Update the graph with one frame (Algorithm 2 or its robust extension); returns the events in order.
 
@@ -128,11 +129,12 @@ class ObjectGraph:
         included; only these may be folded into an observed node as hidden duplicates.
         Nodes in neither list are never touched. ``miss_weights`` (robust mode): per
         expected node, how much a miss of it in this frame weighs (1: a clear, near view).
+        ``camera`` (robust mode): the camera's (x, y), where the frame's misses were seen from.
         """
         if self.edits:  # the operator's corrections (bomc_bt.graph.operator_edits)
             observations = self.edits.relabel(observations, self.nodes, self.index.scale, self.gate)
             observations = self.edits.ignore_deleted(observations, self, self.params.readd_confidence)
-        return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights)
+        return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights, camera)
 
     def take_back_moves(self, session: int, stamp: float, history: Sequence[Event]) -> list[Event]:
         """When ``session`` ends: its moves that a node added later at the old place undoes

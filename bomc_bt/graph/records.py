@@ -140,6 +140,9 @@ class AssociationParams:
     detection_prior_weight: float = 2.0  # [count] robust: how many frames' worth the prior counts
     max_misses: int = 12  # [count] robust: consecutive misses that remove any node, however rarely detected
     confirm_interval: float = 0.5  # [s] robust: robot time between two counted misses or two confirming sightings
+    # [m] robust: a node is removed only once its run of misses was seen from camera places at
+    # least this far apart: misses from one place are one look (a robot standing at a doorway); 0: off
+    miss_spacing: float = 0.0
     move_radius: float = 3.0  # [m] robust: how far a removed or pending object may have moved and keep its id
     # [m] robust: when a pass ends, a node it removed and a node it added, of one category,
     # each the other's nearest within this, are one object moved (bomc_bt.graph.relocations); 0: off
@@ -194,8 +197,10 @@ class AssociationParams:
             raise ValueError("detection_prior must be in (0, 1)")
         if self.detection_prior_weight < 0 or self.max_misses < self.confirm_misses:
             raise ValueError("detection_prior_weight must be >= 0 and max_misses >= confirm_misses")
-        if min(self.confirm_interval, self.move_radius, self.report_distance, self.relocation_radius) < 0:
-            raise ValueError("confirm_interval, move_radius, relocation_radius and report_distance must be >= 0")
+        if min(self.confirm_interval, self.move_radius, self.report_distance, self.relocation_radius,
+               self.miss_spacing) < 0:
+            raise ValueError("confirm_interval, move_radius, relocation_radius, report_distance and miss_spacing "
+                             "must be >= 0")
         if self.confirm_detections < 1 or self.tentative_ttl < 0:
             raise ValueError("confirm_detections must be >= 1 and tentative_ttl >= 0")
         if self.extent_gate < 1.0:
