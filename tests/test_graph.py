@@ -105,8 +105,11 @@ def test_a_run_of_misses_from_one_camera_place_removes_nothing_until_a_second_pl
     for t in (0.0, 0.5):
         seen_between.associate([], [0], 1, t, camera=here)
     seen_between.associate([obs("door", 0.0, 0.0)], [0], 1, 1.0, camera=here)  # seen: the run is over
-    for t, dx in ((1.5, 0.3), (2.0, 0.3)):  # a new run, all from a second spot
-        assert seen_between.associate([], [0], 1, t, camera=here + [dx, 0.0]) == []
+    # a new run, all from a second spot 0.3 m from the first: measured from its own first spot,
+    # not the old run's, so no run length removes the node from there
+    for t in np.arange(1.5, 9.0, 0.5):
+        assert seen_between.associate([], [0], 1, float(t), camera=here + [0.3, 0.0]) == []
+    assert kinds(seen_between.associate([], [0], 1, 9.0, camera=here + [0.6, 0.0])) == [("removed", 0)]
     plain = ObjectGraph(ROBUST, [node(0, "door", 0, 0)])  # miss_spacing 0 (the default): time alone
     events = [e for t in (0.0, 0.5, 1.0) for e in plain.associate([], [0], 1, t, camera=here)]
     assert kinds(events) == [("removed", 0)]
