@@ -21,7 +21,7 @@ from bomc_bt.graph import PRESENT
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
 from bomc_bt.planner import GridPlanner
-from bomc_bt.refresh import RefreshParams, refresh_viewpoints, stale_nodes
+from bomc_bt.refresh import RefreshParams, object_boxes, refresh_viewpoints, stale_nodes
 from bomc_bt.site import write_json
 from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
 from bomc_bt.tree.leaf import Leaf
@@ -169,7 +169,8 @@ class PlanRefreshStops(PlanPhase):
     """
 
     Params = RefreshParams
-    config_params = {"view_range": EXPECT_RANGE, "stale_after": "mission.stale_after"}
+    config_params = {"view_range": EXPECT_RANGE, "stale_after": "mission.stale_after",
+                     "arrival_tolerance": "sim.planner.goal_tolerance"}
     phase = REFRESH
 
     def update(self) -> Status:
@@ -184,10 +185,14 @@ class PlanRefreshStops(PlanPhase):
             return Status.SUCCESS
         now = ctx.now()
         stale = stale_nodes(ctx.graph.nodes.values(), now, self.params.stale_after)
+        second_looks = ctx.graph.awaiting_second_look()
         grid = ctx.robot.live_map()
         distances = GridPlanner(grid, ctx.config.sim.planner).path_lengths_from
         budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
-        stops = refresh_viewpoints(grid, stale, now, ctx.traverse.reached(), pose, budget, distances, self.params)
+        stops = refresh_viewpoints(grid, stale, now, ctx.traverse.reached(), pose, budget, distances, self.params,
+                                   second_looks, ctx.graph.params.miss_spacing,
+                                   object_boxes(ctx.graph, {n.id for n, _ in second_looks}) if second_looks else None)
         self.extend(stops)
-        self.feedback_message = f"{len(stops)} refresh stops for {len(stale)} stale nodes"
+        self.feedback_message = f"{len(stops)} refresh stops for {len(stale)} stale nodes" + (
+            f" and {len(second_looks)} awaiting a second look" if second_looks else "")
         return Status.SUCCESS

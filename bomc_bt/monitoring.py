@@ -346,7 +346,7 @@ seen before it is written. With a store, every frame
         weights = miss_weights(frame, expected, self.params, detections) if self.occlusion_check else None
         events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
                                       in_view=[n.id for n in candidates], miss_weights=weights,
-                                      camera=frame.T_map_camera[:2, 3])
+                                      place=frame.T_map_base[:2, 3])
         if self.seen_before is not None:  # an addition where no earlier pass looked is new to the map
             self.seen_before.mark(events)
         changed = self.graph.drain_changed()

@@ -17,6 +17,12 @@ extra driving (path length on the grid, plus ``stop_cost`` for turning and dwell
 inserted where it lengthens the tour least, while the whole tour stays within ``budget``
 times the length of the pass's plan (an orienteering problem; greedy cheapest insertion). Each stop faces the
 ``hfov``-wide window holding most of that age; Look Around, on arrival, turns to the rest.
+
+With ``association.miss_spacing``, a node whose run of misses would remove it, all seen
+from one place (a robot turning at a doorway), waits for a look from a second place
+(:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`). Those nodes are planned
+first, from reached places at least ``miss_spacing`` from where their misses were seen;
+without that look the object, if taken away, would stay in the map for another pass.
 """
 
 from __future__ import annotations
@@ -25,10 +31,11 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from bomc_bt.geometry import Pose2D
-from bomc_bt.graph import Node
+from bomc_bt.graph import PRESENT, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import line_of_sight
 from bomc_bt.viewpoints import best_heading
@@ -51,12 +58,24 @@ class RefreshParams:
     stop_cost: float = 3.0  # m of driving that one stop's turning and dwelling are worth
     max_viewpoints: int = 20
     hfov_deg: float = 50.0  # planned field of view: the camera's, less a margin
+    # [m] how far from a goal the robot may stop and count it reached (the leaf takes
+    # sim.planner.goal_tolerance): a second look is planned at least miss_spacing plus this
+    # from the place of the misses, or it may be taken from that same spot again
+    arrival_tolerance: float = 0.3
+    # [m] besides reached places, a second look may be taken from places this far from the
+    # node (12 bearings each) that are free with second_look_clearance of room round them
+    second_look_radii: tuple[float, ...] = (1.5, 2.5)
+    second_look_clearance: float = 0.45  # [m] room a second-look place needs (FindDetour's clearance)
 
     def __post_init__(self) -> None:
-        if self.stale_after < 0 or self.budget < 0 or self.stop_cost < 0 or self.max_viewpoints < 0:
-            raise ValueError("need stale_after, budget, stop_cost and max_viewpoints >= 0")
+        if min(self.stale_after, self.budget, self.stop_cost, self.max_viewpoints, self.arrival_tolerance) < 0:
+            raise ValueError("need stale_after, budget, stop_cost, max_viewpoints and arrival_tolerance >= 0")
         if not 0 <= self.min_range < self.view_range:
             raise ValueError("need 0 <= min_range < view_range")
+        if any(not self.min_range <= r <= self.view_range for r in self.second_look_radii):
+            raise ValueError("second_look_radii must lie within [min_range, view_range]")
+        if self.second_look_clearance < 0:
+            raise ValueError("second_look_clearance must be >= 0")
         if not 0 < self.hfov_deg <= 360:
             raise ValueError("hfov_deg must be in (0, 360]")
 
@@ -66,37 +85,69 @@ def stale_nodes(nodes: Iterable[Node], now: float, stale_after: float) -> list[N
     return [n for n in nodes if n.last_seen is not None and now - n.last_seen > stale_after]
 
 
+def object_boxes(graph: ObjectGraph, skip: Iterable[int] = (), half: float = 0.25) -> np.ndarray:
+    """(M, 4) floor boxes x0, y0, x1, y1 of the graph's present objects but ``skip``: each
+    node's footprint, or a square ``half`` m either side of it where it has none."""
+    skip = set(skip)
+    boxes = [n.footprint if n.footprint is not None else
+             np.array([n.position[0] - half, n.position[1] - half, n.position[0] + half, n.position[1] + half])
+             for n in graph.nodes.values() if n.state == PRESENT and n.id not in skip]
+    return np.array(boxes, dtype=float).reshape(-1, 4)
+
+
 def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, candidates: np.ndarray,
                        start: Pose2D, budget: float, distances: DistanceField,
-                       params: RefreshParams | None = None) -> list[Pose2D]:
+                       params: RefreshParams | None = None,
+                       second_looks: Sequence[tuple[Node, tuple[float, float]]] = (),
+                       spacing: float = 0.0, occluders: np.ndarray | None = None) -> list[Pose2D]:
     """Stops (with the heading to face) that bring the stalest nodes back into sight.
 
     ``candidates`` (K, 2) are places the robot has reached; ``budget`` is in metres of
-    driving; ``distances`` gives path lengths on the grid. The stops come in driving order.
+    driving; ``distances`` gives path lengths on the grid. ``second_looks``: nodes whose
+    removal waits for a look from a place at least ``spacing`` (plus ``arrival_tolerance``)
+    from the one given with each
+    (:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`); their stops are chosen
+    first, the most of them per metre, then the stale nodes' by age, and none looks at
+    them past one of ``occluders`` (M, 4: the other objects' boxes x0, y0, x1, y1; a
+    miss counts only where the view is clear). The stops come in driving order.
     """
     params = params or RefreshParams()
-    candidates = np.asarray(candidates, dtype=float).reshape(-1, 2)
-    if not stale or len(candidates) == 0 or budget <= 0 or params.max_viewpoints == 0:
+    reached = np.asarray(candidates, dtype=float).reshape(-1, 2)
+    around = second_look_places(grid, [n for n, _ in second_looks], params)
+    candidates = np.concatenate([reached, around])
+    waiting = {n.id for n, _ in second_looks}
+    stale = [n for n in stale if n.id not in waiting]
+    nodes = [n for n, _ in second_looks] + stale
+    if not nodes or len(candidates) == 0 or budget <= 0 or params.max_viewpoints == 0:
         return []
-    targets = np.array([n.position[:2] for n in stale])
-    age = np.array([now - n.last_seen for n in stale])
+    targets = np.array([n.position[:2] for n in nodes])
+    age = np.array([0.0] * len(second_looks) + [now - n.last_seen for n in stale])
     sight = _sight(grid, candidates, targets, params)
-    covered = np.zeros(len(stale), dtype=bool)
+    if second_looks:
+        places = np.array([place for _, place in second_looks], dtype=float).reshape(-1, 2)
+        apart = np.hypot(candidates[:, None, 0] - places[None, :, 0], candidates[:, None, 1] - places[None, :, 1])
+        sight[:, :len(second_looks)] &= apart >= spacing + params.arrival_tolerance
+        if occluders is not None and len(occluders):
+            sight[:, :len(second_looks)] &= ~_behind(candidates, targets[:len(second_looks)], occluders)
+        sight[len(reached):, len(second_looks):] = False  # places round a node are for its second look only
+    covered = np.zeros(len(nodes), dtype=bool)
     hfov = math.radians(params.hfov_deg)
     route = _Route(distances, candidates, (start.x, start.y))
     headings: dict[int, float] = {}
-    while len(headings) < params.max_viewpoints:
-        gain = (sight & ~covered) @ age
-        extra, after = route.insertion_costs()
-        score = np.where((gain > 0) & (route.length + extra <= budget), gain / (extra + params.stop_cost), 0.0)
-        k = int(np.argmax(score))
-        if score[k] <= 0:
-            break
-        seen = sight[k] & ~covered
-        bearings = np.arctan2(targets[seen, 1] - candidates[k, 1], targets[seen, 0] - candidates[k, 0])
-        headings[k], _ = best_heading(bearings, age[seen], hfov)
-        covered |= sight[k]
-        route.insert(k, int(after[k]))
+    first = np.arange(len(nodes)) < len(second_looks)
+    for weight in (first.astype(float), np.where(first, 0.0, age)):  # second looks first, then by age
+        while len(headings) < params.max_viewpoints:
+            gain = (sight & ~covered) @ weight
+            extra, after = route.insertion_costs()
+            score = np.where((gain > 0) & (route.length + extra <= budget), gain / (extra + params.stop_cost), 0.0)
+            k = int(np.argmax(score))
+            if score[k] <= 0:
+                break
+            seen = sight[k] & ~covered & (weight > 0)
+            bearings = np.arctan2(targets[seen, 1] - candidates[k, 1], targets[seen, 0] - candidates[k, 0])
+            headings[k], _ = best_heading(bearings, weight[seen], hfov)
+            covered |= sight[k]
+            route.insert(k, int(after[k]))
     return [Pose2D(float(candidates[k, 0]), float(candidates[k, 1]), headings[k]) for k in route.stops]
 
 
@@ -143,3 +194,36 @@ def _sight(grid: OccupancyGrid, candidates: np.ndarray, targets: np.ndarray, par
         stop = a + (b - a) * (1.0 - 0.5 / d[k, n]) if d[k, n] > 0.5 else a
         sight[k, n] = line_of_sight(grid, free, (a[0], a[1]), (stop[0], stop[1]))
     return sight
+
+
+def second_look_places(grid: OccupancyGrid, nodes: Sequence[Node], params: RefreshParams) -> np.ndarray:
+    """(K, 2) free places round ``nodes`` (``second_look_radii`` x 12 bearings) with
+    ``second_look_clearance`` of room: where a second look may stand besides reached places."""
+    if not nodes:
+        return np.zeros((0, 2))
+    bearings = np.arange(12) * (np.pi / 6.0)
+    ring = np.array([(r * np.cos(b), r * np.sin(b)) for r in params.second_look_radii for b in bearings]).reshape(-1, 2)
+    places = (np.array([n.position[:2] for n in nodes])[:, None, :] + ring[None, :, :]).reshape(-1, 2)
+    room = cv2.distanceTransform(grid.free_mask().astype(np.uint8), cv2.DIST_L2, 5) * grid.resolution
+    rows, cols = grid.world_to_cell(places[:, 0], places[:, 1])
+    inside = grid.in_bounds(rows, cols)
+    ok = np.zeros(len(places), dtype=bool)
+    ok[inside] = room[rows[inside], cols[inside]] >= params.second_look_clearance
+    return places[ok]
+
+
+def _behind(candidates: np.ndarray, targets: np.ndarray, boxes: np.ndarray, short: float = 0.3) -> np.ndarray:
+    """(K, N): the line from candidate k to target n (less its last ``short`` m) crosses one
+    of ``boxes`` (M, 4: x0, y0, x1, y1), by the slab test."""
+    a = candidates[:, None, None, :]  # (K, 1, 1, 2)
+    step = targets[None, :, None, :] - a  # (K, N, 1, 2)
+    length = np.linalg.norm(step, axis=-1)
+    end = np.clip(1.0 - short / np.maximum(length, 1e-9), 0.0, 1.0)  # (K, N, 1)
+    lo, hi = boxes[None, None, :, :2], boxes[None, None, :, 2:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lo - a) / step, (hi - a) / step
+    inside = (a >= lo) & (a <= hi)  # a parallel line crosses only if it starts inside the slab
+    near = np.where(step == 0, np.where(inside, -np.inf, np.inf), np.minimum(t0, t1))
+    far = np.where(step == 0, np.where(inside, np.inf, -np.inf), np.maximum(t0, t1))
+    enter, leave = near.max(axis=-1), far.min(axis=-1)  # (K, N, M)
+    return ((enter <= leave) & (leave >= 0.0) & (enter <= end)).any(axis=-1)

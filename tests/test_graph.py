@@ -98,20 +98,26 @@ def test_a_run_of_misses_from_one_camera_place_removes_nothing_until_a_second_pl
     g = ObjectGraph(replace(ROBUST, miss_spacing=0.2), [node(0, "door", 0, 0)])
     here = np.array([0.0, -1.1])
     for t in (0.0, 0.5, 1.0, 1.5, 2.0):
-        assert g.associate([], [0], 1, t, camera=here + [0.01 * t, 0.0]) == []
+        assert g.associate([], [0], 1, t, place=here + [0.01 * t, 0.0]) == []
     assert g.nodes[0].misses == 5
-    assert kinds(g.associate([], [0], 1, 2.5, camera=here + [0.3, 0.0])) == [("removed", 0)]
+    ((waiting, place),) = g.awaiting_second_look()  # what the refresh tour goes back to look at
+    assert waiting.id == 0 and np.allclose(place, here)
+    assert kinds(g.associate([], [0], 1, 2.5, place=here + [0.3, 0.0])) == [("removed", 0)]
+    assert g.awaiting_second_look() == []
     seen_between = ObjectGraph(replace(ROBUST, miss_spacing=0.2), [node(0, "door", 0, 0)])
     for t in (0.0, 0.5):
-        seen_between.associate([], [0], 1, t, camera=here)
-    seen_between.associate([obs("door", 0.0, 0.0)], [0], 1, 1.0, camera=here)  # seen: the run is over
+        seen_between.associate([], [0], 1, t, place=here)
+    seen_between.associate([obs("door", 0.0, 0.0)], [0], 1, 1.0, place=here)  # seen: the run is over
     # a new run, all from a second spot 0.3 m from the first: measured from its own first spot,
     # not the old run's, so no run length removes the node from there
     for t in np.arange(1.5, 9.0, 0.5):
-        assert seen_between.associate([], [0], 1, float(t), camera=here + [0.3, 0.0]) == []
-    assert kinds(seen_between.associate([], [0], 1, 9.0, camera=here + [0.6, 0.0])) == [("removed", 0)]
+        assert seen_between.associate([], [0], 1, float(t), place=here + [0.3, 0.0]) == []
+    assert kinds(seen_between.associate([], [0], 1, 9.0, place=here + [0.6, 0.0])) == [("removed", 0)]
+    short = ObjectGraph(replace(ROBUST, miss_spacing=0.2), [node(0, "door", 0, 0)])
+    short.associate([], [0], 1, 0.0, place=here)
+    assert short.awaiting_second_look() == []  # one miss is not yet a run that would remove it
     plain = ObjectGraph(ROBUST, [node(0, "door", 0, 0)])  # miss_spacing 0 (the default): time alone
-    events = [e for t in (0.0, 0.5, 1.0) for e in plain.associate([], [0], 1, t, camera=here)]
+    events = [e for t in (0.0, 0.5, 1.0) for e in plain.associate([], [0], 1, t, place=here)]
     assert kinds(events) == [("removed", 0)]
 
 

@@ -12,7 +12,7 @@ from bomc_bt.graph import Node
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import GAPS, PENDING, REFRESH, VISITED, TraversalState
 from bomc_bt.planner import GridPlanner, PlannerParams
-from bomc_bt.refresh import RefreshParams, refresh_viewpoints, stale_nodes
+from bomc_bt.refresh import RefreshParams, object_boxes, refresh_viewpoints, second_look_places, stale_nodes
 from bomc_bt.traversal import TraversalPlan
 
 NOW = 1000.0
@@ -111,6 +111,61 @@ def test_no_stop_looks_through_a_wall_and_paths_go_round_it():
     assert refresh_viewpoints(grid, [target], NOW, candidates, start, 5.0, grid_paths(grid)) == []
 
 
+def test_a_node_awaiting_a_second_look_comes_first_and_is_seen_from_another_place():
+    """Its misses were all seen from (17, 1) (association.miss_spacing): a stop there decides
+    nothing, so the tour looks from at least ``spacing`` away, before an older stale node."""
+    waiting, stale = node(0, 20.0, 3.0, 990.0), node(1, 9.0, 3.0, 50.0)  # only the second is stale
+    start = Pose2D(15.0, 1.0, 0.0)  # 2 m from places that see either: one stop in the budget
+    reached_only = RefreshParams(second_look_radii=())  # no places round the node: reached ones only
+    plan = dict(now=NOW, start=start, budget=4.5, distances=euclidean, params=reached_only)
+    alone = refresh_viewpoints(corridor(), [stale], candidates=CANDIDATES, **plan)
+    assert len(alone) == 1 and faces(alone[0], stale)
+    stops = refresh_viewpoints(corridor(), [stale], candidates=CANDIDATES, **plan,
+                               second_looks=[(waiting, (17.0, 1.0))], spacing=1.5)
+    assert len(stops) == 1 and faces(stops[0], waiting)
+    assert math.dist((stops[0].x, stops[0].y), (17.0, 1.0)) >= 1.5
+    assert math.dist((stops[0].x, stops[0].y), (20.0, 3.0)) <= 5.0
+    # a spacing of 0.2 m plans the look from at least 0.2 m plus arrival_tolerance (0.3 m) away
+    near = refresh_viewpoints(corridor(), [stale], candidates=np.array([[13.0, 1.0], [17.3, 1.0], [19.0, 1.0]]),
+                              **plan, second_looks=[(waiting, (17.0, 1.0))], spacing=0.2)
+    assert [(s.x, s.y) for s in near] == [(19.0, 1.0)] and faces(near[0], waiting)
+    # no other place in reach of it: no stop for it, and the stale node gets the budget
+    only_there = np.array([[17.0, 1.0], [13.0, 1.0]])
+    stops = refresh_viewpoints(corridor(), [stale], candidates=only_there, **plan,
+                               second_looks=[(waiting, (17.0, 1.0))], spacing=1.5)
+    assert [(s.x, s.y) for s in stops] == [(13.0, 1.0)] and faces(stops[0], stale)
+    # an object standing between the one place in the budget and the node: no miss would count there
+    box = np.array([[19.3, 1.8, 19.8, 2.4]])
+    stops = refresh_viewpoints(corridor(), [stale], candidates=CANDIDATES, **plan,
+                               second_looks=[(waiting, (17.0, 1.0))], spacing=1.5, occluders=box)
+    assert [(s.x, s.y) for s in stops] == [(13.0, 1.0)]
+    stops = refresh_viewpoints(corridor(), [stale], candidates=CANDIDATES, **plan,
+                               second_looks=[(waiting, (17.0, 1.0))], spacing=1.5, occluders=box + [0, 2, 0, 2])
+    assert [(s.x, s.y) for s in stops] == [(19.0, 1.0)]  # the box moved out of the line of sight
+
+
+def test_a_second_look_may_stand_on_free_floor_round_the_node_where_the_robot_never_stopped():
+    """Reached places are sparse: the one in the budget is where the misses were seen. A
+    free place round the node (2.5 m from it, with room for the robot) is used instead;
+    none is put in a wall or outside the map."""
+    waiting = node(0, 20.0, 3.0, 990.0)
+    stops = refresh_viewpoints(corridor(), [], NOW, np.array([[19.0, 1.0]]), Pose2D(19.0, 1.0, 0.0), 10.0,
+                               euclidean, second_looks=[(waiting, (19.0, 1.0))], spacing=0.2)
+    assert len(stops) == 1 and faces(stops[0], waiting)
+    assert math.dist((stops[0].x, stops[0].y), (19.0, 1.0)) >= 0.5
+    assert min(abs(math.dist((stops[0].x, stops[0].y), (20.0, 3.0)) - r) for r in (1.5, 2.5)) < 1e-6
+    places = second_look_places(corridor(), [waiting], RefreshParams())
+    assert len(places) > 0 and (places[:, 1] >= 0.45).all() and (places[:, 1] <= 4.0 - 0.45).all()
+
+
+def test_object_boxes_are_the_present_nodes_footprints_or_a_square_round_each():
+    from bomc_bt.graph import AssociationParams, ObjectGraph
+    graph = ObjectGraph(AssociationParams(), nodes=[node(0, 5.0, 3.0, None), node(1, 9.0, 3.0, None)])
+    graph.nodes[1].footprint = np.array([8.5, 2.6, 9.6, 3.3])
+    assert np.allclose(object_boxes(graph), [[4.75, 2.75, 5.25, 3.25], [8.5, 2.6, 9.6, 3.3]])
+    assert np.allclose(object_boxes(graph, skip={0}), [[8.5, 2.6, 9.6, 3.3]])
+
+
 def test_nothing_stale_means_no_tour():
     fresh = [node(0, 10.0, 3.0, 900.0)]
     assert refresh_viewpoints(corridor(), stale_nodes(fresh, NOW, 600.0), NOW, CANDIDATES,
@@ -118,7 +173,9 @@ def test_nothing_stale_means_no_tour():
 
 
 @pytest.mark.parametrize("field,value", [("stale_after", -1.0), ("budget", -0.1), ("max_viewpoints", -1),
-                                          ("view_range", 0.2), ("hfov_deg", 0.0), ("stop_cost", -1.0)])
+                                          ("view_range", 0.2), ("hfov_deg", 0.0), ("stop_cost", -1.0),
+                                          ("arrival_tolerance", -0.5), ("second_look_radii", (0.2,)),
+                                          ("second_look_clearance", -0.1)])
 def test_bad_params_are_refused(field, value):
     with pytest.raises(ValueError):
         RefreshParams(**{field: value})

@@ -34,12 +34,14 @@ class AssociationPolicy(Protocol):
     def associate(
         self, graph: ObjectGraph, observations: Sequence[Observation], expected: Sequence[int], session: int,
         stamp: float, in_view: Sequence[int] | None = None, miss_weights: Sequence[float] | None = None,
+        place: np.ndarray | None = None,
     ) -> list[Event]:
         """Update ``graph`` with one frame of ``session`` at robot time ``stamp``; the events in order.
 
         ``expected``: ids of nodes the frame can confirm or deny; ``in_view``: ids of all
         nodes inside the field of view, hidden ones included; ``miss_weights``: per expected
-        node, how much its absence from this frame weighs (a policy may ignore both).
+        node, how much its absence from this frame weighs; ``place``: the robot's (x, y) when
+        the frame was taken (a policy may ignore the last three).
         """
         ...
 

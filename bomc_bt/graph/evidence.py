@@ -22,8 +22,8 @@ class DetectionRecord:
     missed: float = 0.0  # miss weight before the current run of misses
     run: float = 0.0  # miss weight of the current run
     last_seen: float = -math.inf  # robot time of the last counted detection
-    run_from: tuple[float, float] | None = None  # camera (x, y) of the current run's first miss
-    run_spread: float = 0.0  # m: farthest camera place of the run from run_from (inf: no places given)
+    run_from: tuple[float, float] | None = None  # robot (x, y) at the current run's first miss
+    run_spread: float = 0.0  # m: farthest robot place of the run from run_from (inf: no places given)
 
 
 class MissEvidence:
@@ -40,23 +40,28 @@ class MissEvidence:
             r.seen += 1.0
             r.last_seen = stamp
 
-    def missed(self, node_id: int, weight: float, camera: Sequence[float] | None = None) -> float:
-        """A counted miss of ``weight``, seen from ``camera`` (x, y); returns the run's weight."""
+    def missed(self, node_id: int, weight: float, place: Sequence[float] | None = None) -> float:
+        """A counted miss of ``weight``, seen with the robot at ``place`` (x, y); returns the run's weight."""
         r = self._records.setdefault(node_id, DetectionRecord())
-        if camera is None:
+        if place is None:
             r.run_spread = math.inf
         elif r.run == 0.0 or r.run_from is None:
-            r.run_from = (float(camera[0]), float(camera[1]))
+            r.run_from = (float(place[0]), float(place[1]))
         else:
-            r.run_spread = max(r.run_spread, math.hypot(camera[0] - r.run_from[0], camera[1] - r.run_from[1]))
+            r.run_spread = max(r.run_spread, math.hypot(place[0] - r.run_from[0], place[1] - r.run_from[1]))
         r.run += weight
         return r.run
 
     def spread(self, node_id: int) -> float:
-        """How far apart (m) the camera places of the node's current run of misses lie, from
+        """How far apart (m) the robot's places in the node's current run of misses lie, from
         its first: one place is one look, however many frames it took (inf: places unknown)."""
         r = self._records.get(node_id)
         return 0.0 if r is None else r.run_spread
+
+    def run_place(self, node_id: int) -> tuple[float, float] | None:
+        """Where the robot stood (x, y) at the first miss of the node's current run (None: no run)."""
+        r = self._records.get(node_id)
+        return None if r is None or r.run == 0.0 else r.run_from
 
     def run(self, node_id: int) -> float:
         r = self._records.get(node_id)

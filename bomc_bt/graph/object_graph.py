@@ -101,6 +101,20 @@ class ObjectGraph:
         """Ids of present nodes awaiting confirmation of their removal (robust mode)."""
         return sorted(self._pending)
 
+    def awaiting_second_look(self) -> list[tuple[Node, tuple[float, float]]]:
+        """Present nodes whose run of misses is long enough to remove them but was seen from
+        one place only (``miss_spacing``), each with that place: a look from elsewhere decides."""
+        needed = getattr(self.policy, "misses_needed", None)
+        if needed is None or self.params.miss_spacing <= 0:
+            return []
+        waiting = []
+        for v in self.nodes.values():
+            place = self.evidence.run_place(v.id)
+            if v.state == PRESENT and place is not None and self.evidence.run(v.id) >= needed(self, v) - 1e-9 \
+                    and self.evidence.spread(v.id) < self.params.miss_spacing:
+                waiting.append((v, place))
+        return waiting
+
     def removed_this_session(self) -> list[Node]:
         """Nodes removed in the current session that may yet turn out to have moved."""
         return list(self._removed_now.values())
@@ -120,7 +134,7 @@ class ObjectGraph:
     def associate(
         self, observations: list[Observation], expected: list[int], session: int, stamp: float,
         in_view: list[int] | None = None, miss_weights: Sequence[float] | None = None,
-        camera: np.ndarray | None = None,
+        place: np.ndarray | None = None,
     ) -> list[Event]:
         """Update the graph with one frame (Algorithm 2 or its robust extension); returns the events in order.
 
@@ -129,12 +143,13 @@ class ObjectGraph:
         included; only these may be folded into an observed node as hidden duplicates.
         Nodes in neither list are never touched. ``miss_weights`` (robust mode): per
         expected node, how much a miss of it in this frame weighs (1: a clear, near view).
-        ``camera`` (robust mode): the camera's (x, y), where the frame's misses were seen from.
+        ``place`` (robust mode): the robot's (x, y) on the map (base_link), where the frame's
+        misses were seen from; turning on the spot swings the camera, not the place.
         """
         if self.edits:  # the operator's corrections (bomc_bt.graph.operator_edits)
             observations = self.edits.relabel(observations, self.nodes, self.index.scale, self.gate)
             observations = self.edits.ignore_deleted(observations, self, self.params.readd_confidence)
-        return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights, camera)
+        return self.policy.associate(self, observations, expected, session, stamp, in_view, miss_weights, place)
 
     def take_back_moves(self, session: int, stamp: float, history: Sequence[Event]) -> list[Event]:
         """When ``session`` ends: its moves that a node added later at the old place undoes

@@ -40,9 +40,9 @@ class PaperPolicy:
     def associate(
         self, graph: ObjectGraph, observations: Sequence[Observation], expected: Sequence[int], session: int,
         stamp: float, in_view: Sequence[int] | None = None, miss_weights: Sequence[float] | None = None,
-        camera: np.ndarray | None = None,
+        place: np.ndarray | None = None,
     ) -> list[Event]:
-        """Algorithm 2 on one frame (``in_view``, ``miss_weights`` and ``camera`` play no part)."""
+        """Algorithm 2 on one frame (``in_view``, ``miss_weights`` and ``place`` play no part)."""
         obs, exp = observations, graph.begin(session, expected)
         events: list[Event] = []
         unmatched = np.ones(len(obs), dtype=bool)

@@ -140,7 +140,7 @@ class AssociationParams:
     detection_prior_weight: float = 2.0  # [count] robust: how many frames' worth the prior counts
     max_misses: int = 12  # [count] robust: consecutive misses that remove any node, however rarely detected
     confirm_interval: float = 0.5  # [s] robust: robot time between two counted misses or two confirming sightings
-    # [m] robust: a node is removed only once its run of misses was seen from camera places at
+    # [m] robust: a node is removed only once its run of misses was seen from robot places at
     # least this far apart: misses from one place are one look (a robot standing at a doorway); 0: off
     miss_spacing: float = 0.0
     move_radius: float = 3.0  # [m] robust: how far a removed or pending object may have moved and keep its id

@@ -8,7 +8,7 @@
   keeps the maximum confidence seen (the paper's attribute is the detection score; the best view is the most
   informative), and records ``last_session``, ``observations`` and resets ``misses``.
 * *Confirm before deleting.* An unmatched expected node gains a miss, at most one per ``confirm_interval``
-  of robot time, and goes at ``confirm_misses`` consecutive misses seen from camera places ``miss_spacing``
+  of robot time, and goes at ``confirm_misses`` consecutive misses seen from robot places ``miss_spacing``
   apart (misses from one spot are one look). Misses are weighed by how often the frames that expected the node
   saw it (:meth:`RobustPolicy.misses_needed`): an object often missed from where the robot passes needs more.
 * *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in
@@ -88,7 +88,7 @@ class RobustPolicy:
     def associate(
         self, graph: ObjectGraph, observations: Sequence[Observation], expected: Sequence[int], session: int,
         stamp: float, in_view: Sequence[int] | None = None, miss_weights: Sequence[float] | None = None,
-        camera: np.ndarray | None = None) -> list[Event]:
+        place: np.ndarray | None = None) -> list[Event]:
         """Match, refresh, count misses, place the unmatched, fold hidden duplicates."""
         self.tentative.begin(session)
         self.co_observed.begin(session)
@@ -118,7 +118,7 @@ class RobustPolicy:
             if vid in matched_nodes:
                 graph.evidence.seen(vid, stamp, self.params.confirm_interval)
             elif weights.get(vid, 1.0) > 0.0:
-                events.extend(self._miss(graph, graph.nodes[vid], session, stamp, weights.get(vid, 1.0), camera))
+                events.extend(self._miss(graph, graph.nodes[vid], session, stamp, weights.get(vid, 1.0), place))
         taker = {vid: obs[j] for j, vid in matched_obs.items()}  # the view each matched node took
         fresh: list[int] = []  # observations of objects the graph does not hold
         beside: list[int | None] = []  # per fresh one, a node whose view of this frame stood clear of it
@@ -264,12 +264,12 @@ class RobustPolicy:
         return []
 
     def _miss(self, graph: ObjectGraph, v: Node, session: int, stamp: float, weight: float,
-              camera: np.ndarray | None) -> list[Event]:
-        """Count a miss of the expected, unmatched ``v`` (weighing ``weight``, seen from ``camera``);
+              place: np.ndarray | None) -> list[Event]:
+        """Count a miss of the expected, unmatched ``v`` (weighing ``weight``, the robot at ``place``);
         its removal once the run weighs ``misses_needed`` and was seen from places ``miss_spacing`` apart."""
         if not graph.miss(v, session, stamp, self.params.confirm_interval):
             return []
-        needed, run = self.misses_needed(graph, v), graph.evidence.missed(v.id, weight, camera)
+        needed, run = self.misses_needed(graph, v), graph.evidence.missed(v.id, weight, place)
         if run >= needed - 1e-9 and graph.evidence.spread(v.id) >= self.params.miss_spacing:
             arrival = self._arrival(graph, v, session)
             if arrival is not None:

@@ -135,6 +135,25 @@ def test_plan_refresh_stops_go_back_to_nodes_seen_long_ago(ctx, robot):
     assert leaf.feedback_message == "1 refresh stops for 1 stale nodes"
 
 
+def test_plan_refresh_stops_look_again_from_another_place_at_a_node_missed_from_one_spot(ctx, robot):
+    """association.miss_spacing: the run of misses from (8, 5) would remove the chair but was one
+    look; the refresh tour goes where the robot has been 2.7 m from it, not back to (8, 5)."""
+    state = start_pass(ctx, (2, 5), (6, 5), (8, 5))
+    for _ in range(3):
+        state.mark(state.next(), VISITED)
+    graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=1, miss_spacing=0.2))
+    graph.associate([Observation("chair", np.array([8.5, 6.0, 0.5]), 0.9)], [], 1, 0.0)
+    for t in (0.5, 1.0, 1.5, 2.0):
+        assert graph.associate([], [0], 1, t, place=np.array([8.0, 5.0])) == []
+    ctx.graph = graph
+    robot.advance(10.0)  # nothing is stale yet
+    leaf = PlanRefreshStops("Refresh", RefreshParams(stale_after=600.0, budget=0.3), ctx)
+    assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == 1
+    assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 awaiting a second look"
+    stop = state.waypoint(len(state.states) - 1)
+    assert (stop.x, stop.y) == (6.0, 5.0)
+
+
 def test_plan_refresh_stops_with_nothing_stale_adds_an_empty_phase(ctx, robot):
     state = start_pass(ctx, (2, 5))
     state.mark(state.next(), VISITED)
