@@ -21,7 +21,8 @@ times the length of the pass's plan (an orienteering problem; greedy cheapest in
 With ``association.miss_spacing``, a node whose run of misses would remove it, all seen
 from one place (a robot turning at a doorway), waits for a look from a second place
 (:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`). Those nodes are planned
-first, from reached places at least ``miss_spacing`` from where their misses were seen;
+first, from reached places or free places round the node, at least ``miss_spacing`` plus
+the goal tolerance from where their misses were seen, and never past another object;
 without that look the object, if taken away, would stay in the map for another pass.
 """
 
@@ -128,7 +129,9 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
         apart = np.hypot(candidates[:, None, 0] - places[None, :, 0], candidates[:, None, 1] - places[None, :, 1])
         sight[:, :len(second_looks)] &= apart >= spacing + params.arrival_tolerance
         if occluders is not None and len(occluders):
-            sight[:, :len(second_looks)] &= ~_behind(candidates, targets[:len(second_looks)], occluders)
+            k, n = np.nonzero(sight[:, :len(second_looks)])  # only the pairs in sight: memory stays small
+            hidden = _behind(candidates[k], targets[n], occluders)
+            sight[k[hidden], n[hidden]] = False
         sight[len(reached):, len(second_looks):] = False  # places round a node are for its second look only
     covered = np.zeros(len(nodes), dtype=bool)
     hfov = math.radians(params.hfov_deg)
@@ -212,18 +215,18 @@ def second_look_places(grid: OccupancyGrid, nodes: Sequence[Node], params: Refre
     return places[ok]
 
 
-def _behind(candidates: np.ndarray, targets: np.ndarray, boxes: np.ndarray, short: float = 0.3) -> np.ndarray:
-    """(K, N): the line from candidate k to target n (less its last ``short`` m) crosses one
+def _behind(starts: np.ndarray, ends: np.ndarray, boxes: np.ndarray, short: float = 0.3) -> np.ndarray:
+    """(P,): the line from ``starts[p]`` to ``ends[p]`` (less its last ``short`` m) crosses one
     of ``boxes`` (M, 4: x0, y0, x1, y1), by the slab test."""
-    a = candidates[:, None, None, :]  # (K, 1, 1, 2)
-    step = targets[None, :, None, :] - a  # (K, N, 1, 2)
+    a = starts[:, None, :]  # (P, 1, 2)
+    step = ends[:, None, :] - a  # (P, 1, 2)
     length = np.linalg.norm(step, axis=-1)
-    end = np.clip(1.0 - short / np.maximum(length, 1e-9), 0.0, 1.0)  # (K, N, 1)
-    lo, hi = boxes[None, None, :, :2], boxes[None, None, :, 2:]
+    end = np.clip(1.0 - short / np.maximum(length, 1e-9), 0.0, 1.0)  # (P, 1)
+    lo, hi = boxes[None, :, :2], boxes[None, :, 2:]
     with np.errstate(divide="ignore", invalid="ignore"):
         t0, t1 = (lo - a) / step, (hi - a) / step
     inside = (a >= lo) & (a <= hi)  # a parallel line crosses only if it starts inside the slab
     near = np.where(step == 0, np.where(inside, -np.inf, np.inf), np.minimum(t0, t1))
     far = np.where(step == 0, np.where(inside, np.inf, -np.inf), np.maximum(t0, t1))
-    enter, leave = near.max(axis=-1), far.min(axis=-1)  # (K, N, M)
+    enter, leave = near.max(axis=-1), far.min(axis=-1)  # (P, M)
     return ((enter <= leave) & (leave >= 0.0) & (enter <= end)).any(axis=-1)
