@@ -34,6 +34,7 @@ from bomc_bt.exploration.gain import visible_unknown
 from bomc_bt.exploration.gain_choice import Candidate, choose_by_gain
 from bomc_bt.exploration.progress import AreaWatch
 from bomc_bt.exploration.reachability import Reachability
+from bomc_bt.exploration.turn_look import TurnLooks
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.planner import PlannerParams
 from bomc_bt.trail import Trail
@@ -99,6 +100,7 @@ class Explorer:
         self.unreachable: list[Frontier] = []
         self.area = AreaWatch(params.no_progress_time, params.min_progress_area, start_time)
         self.trail = Trail()
+        self.turns = TurnLooks()
         # standoff goals and gains kept across decisions, per reachable-area radius (decision_cache)
         self._caches: dict[float, DecisionCache] = {}
 
@@ -144,17 +146,24 @@ class Explorer:
         # behind a 220-degree lidar) is mapped by the turn towards any other goal: _choose
         # skips those.
         self._yaw = robot_yaw
-        choice, best = self._choose(grid, robot_xy, reach, self._candidates(grid, robot_xy, reach))
+        candidates = self._candidates(grid, robot_xy, reach)
+        choice, best = self._choose(grid, robot_xy, reach, candidates)
         self.last_choice = choice
         window = choice.window
         if best is None and self.unreachable and reach is not None:
             choice, best = self._from_pocket(grid, robot_xy, reach, choice)
             window = "squeeze"
+        if best is None:  # last resort: turn to face a frontier at the robot's feet (.turn_look)
+            gain = self._cache(reach).gains if self.params.explorer == "gain" and reach is not None else None
+            best, window = self.turns.pick(candidates, robot_xy, self.min_goal_distance, self.blacklist, gain,
+                                           self.params.min_gain), "turn"
         if best is None:
             unreachable = f"; {len(self.unreachable)} more the planner cannot reach" if self.unreachable else ""
             return self._finish(DONE, (choice.reason or "no frontiers left") + unreachable)
         self.goals += 1
         self._last_anchor = best.anchor
+        if window == "turn":  # stay, and face the way the robot's back faced (the blind sector)
+            return Goal(robot_xy, best.frontier, window, now, anchor=self.turns.behind(robot_xy, robot_yaw, best))
         return Goal(best.goal, best.frontier, window, now, anchor=best.anchor)
 
     def _choose(self, grid: OccupancyGrid, robot_xy: tuple[float, float], reach: Reachability | None,
