@@ -109,13 +109,23 @@ class DriveToFrontierParams:
     recheck_period: float = 2.0  # [s] robot time between checks that the frontier is still open
     open_radius: float = 0.6  # [m] around the goal searched for unknown cells
     min_unknown: int = 3  # [count] fewer frontier cells (free next to unknown) near it: mapped, move on
+    arrive_radius: float = 0.3  # [m] this near the goal the robot has arrived (sim.planner.goal_tolerance)
+    in_view_deg: float = 90.0  # [deg] a frontier this near the heading on arrival is in the lidar's view: no turn
 
 
 @register("DriveToFrontier")
 class DriveToFrontier(ActionLeaf):
-    """Drives to the chosen frontier; succeeds early once it has been mapped, or when time is up."""
+    """Drives to the chosen frontier; succeeds early once it has been mapped, when the robot
+    arrives with it already in the lidar's view, or when time is up.
+
+    The goal's heading faces the frontier, for a robot that arrives with it in the blind
+    sector behind. Arriving with it in view, the turn to that heading shows nothing new: on 8
+    starts of a small real map (small_house), the gain explorer turned on the spot for 8.5 s
+    of the 50 s it took to map 95 %, the baseline for 4.2 s (docs/exploration.md 7.14).
+    """
 
     Params = DriveToFrontierParams
+    config_params = {"arrive_radius": "sim.planner.goal_tolerance"}
     reads = ("goal",)
     writes = ("nav_failure",)
 
@@ -136,6 +146,18 @@ class DriveToFrontier(ActionLeaf):
     def still_open(self, grid) -> bool:
         p = self.params
         return still_open(grid, self.goal.looks_at, p.open_radius, p.min_unknown)
+
+    def arrived_in_view(self, pose: Pose2D) -> bool:
+        """At the goal with the frontier already in the lidar's view: the turn to the goal's
+        heading would show nothing new. Not for a back-out or a turn on the spot, whose
+        heading is the point."""
+        if self.goal.backout or self.goal.window == "turn":
+            return False
+        if pose.distance_to(Pose2D(*self.goal.xy)) > self.params.arrive_radius:
+            return False
+        ax, ay = self.goal.looks_at
+        bearing = math.atan2(ay - pose.y, ax - pose.x) - pose.yaw
+        return abs(math.remainder(bearing, 2 * math.pi)) <= math.radians(self.params.in_view_deg)
 
     def before_poll(self) -> Status | None:
         ctx, explorer = self.context, self.context.explorer
@@ -174,6 +196,11 @@ class DriveToFrontier(ActionLeaf):
                 self.feedback_message = "frontier mapped on the way"
                 return Status.SUCCESS
         pose = ctx.robot.pose()
+        if pose is not None and self.arrived_in_view(pose):
+            self.handle.cancel()
+            ctx.explorer.goal_reached(self.goal, self.still_open(ctx.robot.live_map()))
+            self.feedback_message = "arrived with the frontier in view"
+            return Status.SUCCESS
         if pose is not None:
             d = pose.distance_to(Pose2D(*self.goal.xy))
             self.feedback_message = f"driving to ({self.goal.xy[0]:.1f}, {self.goal.xy[1]:.1f}), {d:.1f} m"
