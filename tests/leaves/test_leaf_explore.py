@@ -88,24 +88,35 @@ def test_drive_to_frontier_faces_the_frontier_and_succeeds_on_arrival(build, rob
     assert tick(leaf) == Status.SUCCESS
 
 
-def test_drive_to_frontier_ends_on_arrival_with_the_frontier_in_view_without_turning_to_face_it(build, robot):
+def test_drive_to_frontier_ends_on_arrival_at_a_mapped_frontier_without_turning_to_face_it(build, robot):
     leaf = drive(build)
     assert tick(leaf) == Status.RUNNING
     goal = key("goal")
+    robot.grid.data[:, 140:] = 0  # mapped on the last metre, before the 2 s recheck
+    robot.place(Pose2D(goal.xy[0] - 0.2, goal.xy[1], 1.2))  # arrived, not facing the goal's heading
+    assert tick(leaf) == Status.SUCCESS and leaf.feedback_message == "arrived, the frontier mapped"
+    assert robot.last.status() is Nav.CANCELLED  # no turn on the spot
+
+
+def test_drive_to_frontier_ends_on_arrival_with_an_open_frontier_in_view_only_the_first_time(build, robot):
+    leaf = drive(build)
+    tick(leaf)
+    goal = key("goal")
     robot.place(Pose2D(goal.xy[0] - 0.2, goal.xy[1], 1.2))  # arrived, the frontier 1.2 rad off its heading:
-    assert tick(leaf) == Status.SUCCESS  # in the lidar's 220 degrees, so no turn on the spot to face it
-    assert leaf.feedback_message == "arrived with the frontier in view"
-    assert robot.last.status() is Nav.CANCELLED
+    assert tick(leaf) == Status.SUCCESS  # in the lidar's 220 degrees, though still unknown (not yet mapped)
+    assert leaf.feedback_message == "arrived with the frontier in view" and not build.explorer.blacklist.points
+    leaf.stop(Status.SUCCESS)
+    assert tick(leaf) == Status.RUNNING  # the same frontier again: turn to face it
+    robot.last.finish(Nav.SUCCEEDED, "arrived")
+    assert tick(leaf) == Status.SUCCESS and build.explorer.blacklist.points  # still open: not chosen again
 
 
 def test_drive_to_frontier_turns_to_face_a_frontier_that_arrival_leaves_behind(build, robot):
     leaf = drive(build)
     tick(leaf)
     goal = key("goal")
-    robot.place(Pose2D(goal.xy[0] - 0.2, goal.xy[1], 2.0))  # arrived facing away: the blind sector
-    assert tick(leaf) == Status.RUNNING and robot.last.status() is Nav.RUNNING
-    robot.place(Pose2D(goal.xy[0] - 0.2, goal.xy[1], 1.0))  # navigation turned it
-    assert tick(leaf) == Status.SUCCESS
+    robot.place(Pose2D(goal.xy[0] - 0.2, goal.xy[1], 2.5))  # arrived facing away: the blind sector
+    assert tick(leaf) == Status.RUNNING and robot.last.status() is Nav.RUNNING  # navigation turns it
 
 
 def test_drive_to_frontier_succeeds_early_once_the_frontier_is_mapped(build, robot):
