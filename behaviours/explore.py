@@ -112,6 +112,10 @@ class DriveToFrontierParams:
     arrive_radius: float = 0.3  # [m] this near the goal the robot has arrived (sim.planner.goal_tolerance)
     in_view_deg: float = 90.0  # [deg] a frontier this near the heading on arrival is in the lidar's view: no turn
 
+    def __post_init__(self) -> None:
+        if not (self.open_radius > 0 and self.arrive_radius >= 0 and 0 <= self.in_view_deg <= 180):
+            raise ValueError("need open_radius > 0, arrive_radius >= 0 and 0 <= in_view_deg <= 180")
+
 
 @register("DriveToFrontier")
 class DriveToFrontier(ActionLeaf):

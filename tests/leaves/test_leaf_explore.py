@@ -190,3 +190,10 @@ def test_blacklist_goal_has_nothing_to_do_once_exploration_is_over(build):
     py_trees.blackboard.Blackboard.set("/goal", None)
     assert tick(BlacklistGoal("Blacklist", None, build)) == Status.SUCCESS
     assert np.size(build.explorer.blacklist.points) == 0
+
+
+@pytest.mark.parametrize("bad", [{"in_view_deg": -5.0}, {"in_view_deg": 200.0}, {"open_radius": 0.0},
+                                 {"arrive_radius": -0.1}])
+def test_drive_to_frontier_refuses_parameters_out_of_range(bad):
+    with pytest.raises(ValueError):
+        DriveToFrontierParams(**bad)
