@@ -129,19 +129,14 @@ class DriveToFrontier(ActionLeaf):
     of the 50 s it took to map 95 %, the baseline for 4.2 s (docs/exploration.md 7.14).
     A frontier in view but still open is not blacklisted then: the lidar's map is updated
     every quarter metre or 14 degrees, so the robot may not have mapped what it sees from
-    there yet, and the next goal's first metre does. Only the first arrival at a frontier
-    ends so; the next one turns, and blacklists it if still open, so that two frontiers no
-    lidar closes (glass) do not pull the robot to and fro.
+    there yet, and the next goal's first metre does. Which arrivals are spared the turn is
+    the explorer's to remember (:mod:`bomc_bt.exploration.turn_look`).
     """
 
     Params = DriveToFrontierParams
     config_params = {"arrive_radius": "sim.planner.goal_tolerance"}
     reads = ("goal",)
     writes = ("nav_failure",)
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self.arrived_open: list[tuple[float, float]] = []  # frontiers arrived at in view, still open
 
     def send(self) -> Handle:
         self.goal = self.get("goal")
@@ -170,14 +165,11 @@ class DriveToFrontier(ActionLeaf):
             return None
         if not self.still_open(self.context.robot.live_map()):
             return "arrived, the frontier mapped"
-        ax, ay = self.goal.looks_at
-        if any(math.dist((ax, ay), xy) <= self.params.open_radius for xy in self.arrived_open):
-            return None  # the second time: turn, and blacklist it if still open
-        bearing = math.remainder(math.atan2(ay - pose.y, ax - pose.x) - pose.yaw, 2 * math.pi)
-        if abs(bearing) > math.radians(self.params.in_view_deg):
-            return None
-        self.arrived_open.append((ax, ay))
-        return "arrived with the frontier in view"
+        turns = self.context.explorer.turns
+        if turns.skip_arrival_turn(self.goal.looks_at, (pose.x, pose.y, pose.yaw), self.params.in_view_deg,
+                                   self.params.open_radius):
+            return "arrived with the frontier in view"
+        return None  # out of view, or the second arrival: turn, and blacklist it if still open
 
     def before_poll(self) -> Status | None:
         ctx, explorer = self.context, self.context.explorer
