@@ -21,7 +21,7 @@ from bomc_bt.graph import PRESENT
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
 from bomc_bt.planner import GridPlanner
-from bomc_bt.refresh import RefreshParams, object_boxes, refresh_viewpoints, stale_nodes
+from bomc_bt.refresh import RefreshParams, object_boxes_by_id, refresh_viewpoints, stale_nodes
 from bomc_bt.site import write_json
 from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
 from bomc_bt.tree.leaf import Leaf
@@ -186,13 +186,18 @@ class PlanRefreshStops(PlanPhase):
         now = ctx.now()
         stale = stale_nodes(ctx.graph.nodes.values(), now, self.params.stale_after)
         second_looks = ctx.graph.awaiting_second_look()
+        waiting = {n.id for n, _ in second_looks}
+        unresolved = [n for n in ctx.graph.unresolved(ctx.session) if n.id not in waiting] \
+            if self.params.unresolved else []
+        looks = second_looks + [(n, None) for n in unresolved]
         grid = ctx.robot.live_map()
         distances = GridPlanner(grid, ctx.config.sim.planner).path_lengths_from
         budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
+        boxes, ids = object_boxes_by_id(ctx.graph) if looks else (None, None)
         stops = refresh_viewpoints(grid, stale, now, ctx.traverse.reached(), pose, budget, distances, self.params,
-                                   second_looks, ctx.graph.params.miss_spacing,
-                                   object_boxes(ctx.graph, {n.id for n, _ in second_looks}) if second_looks else None)
+                                   looks, ctx.graph.params.miss_spacing, boxes, ids)
         self.extend(stops)
         self.feedback_message = f"{len(stops)} refresh stops for {len(stale)} stale nodes" + (
-            f" and {len(second_looks)} awaiting a second look" if second_looks else "")
+            f" and {len(second_looks)} awaiting a second look" if second_looks else "") + (
+            f" and {len(unresolved)} left unresolved" if unresolved else "")
         return Status.SUCCESS

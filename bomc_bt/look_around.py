@@ -13,9 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from bomc_bt.geometry import Pose2D
+from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.monitoring import unverified_headings
+from bomc_bt.monitoring import camera_clear, line_of_sight, unverified_headings
 
 
 @dataclass
@@ -67,8 +67,34 @@ class HeadTurns:
 
 def plan_head_turns(graph, pose: Pose2D | None, session: int, grid: OccupancyGrid, params: LookAroundParams,
                     hfov_deg: float, now: float) -> HeadTurns:
-    """The head turns for a waypoint reached at ``pose`` (none without a pose)."""
+    """The head turns for a waypoint reached at ``pose`` (none without a pose). While a node
+    whose misses are being counted lies in front of the camera, the robot first holds the
+    heading it arrived with for ``dwell`` (:func:`pending_in_front`)."""
     headings = [] if pose is None else unverified_headings(
         graph, pose, session, grid, params.radius, math.radians(hfov_deg), params.max_turns,
         now=now, stale_after=params.refresh_after)
-    return HeadTurns(headings, params.dwell, now + params.timeout)
+    hold = pose is not None and pending_in_front(graph, pose, grid, params.radius, math.radians(hfov_deg))
+    return HeadTurns(headings, params.dwell, now + params.timeout, now + params.dwell if hold else None)
+
+
+def pending_in_front(graph, pose: Pose2D, grid: OccupancyGrid, radius: float, fov: float) -> bool:
+    """A node missed by a near, clear view since its last detection (a run of misses weighing
+    1 or more, :mod:`bomc_bt.graph.evidence`) lies within ``radius`` and half the camera's
+    ``fov`` of the heading, in the camera's line of sight (:func:`~bomc_bt.monitoring.camera_clear`).
+    The frames of the next ``dwell`` decide it: its misses run on to a removal or a detection
+    confirms it. Turning away at once, as the robot did at a stop planned to face such a
+    node, left a table taken away from a wall on the map for passes: its misses counted only
+    over the arrival's few frames."""
+    clear = camera_clear(grid)
+    for vid in graph.pending():
+        node = graph.nodes.get(vid)
+        if node is None or graph.evidence.run(vid) < 1.0:
+            continue
+        dx, dy = node.position[0] - pose.x, node.position[1] - pose.y
+        distance = math.hypot(dx, dy)
+        if not 0.5 <= distance <= radius or abs(wrap_angle(math.atan2(dy, dx) - pose.yaw)) > fov / 2:
+            continue
+        stop = (pose.x + dx * (1 - 0.5 / distance), pose.y + dy * (1 - 0.5 / distance))
+        if line_of_sight(grid, clear, (pose.x, pose.y), stop):
+            return True
+    return False

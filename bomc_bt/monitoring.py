@@ -156,6 +156,15 @@ def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: 
     return picks[:count]
 
 
+def camera_clear(grid: OccupancyGrid) -> np.ndarray:
+    """Cells the camera sees through on ``grid``: all but occupied ones. Furniture leaves its
+    lidar shadow unknown on a map (the floor round a table pushed against a wall and the
+    chair at it), and the camera, higher than the lidar, looks over what casts it; a
+    look planned only along known free cells never faces such a table, and a table
+    taken away from there is not seen gone."""
+    return ~grid.occupied_mask()
+
+
 def line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> bool:
     n = max(2, int(math.hypot(b[0] - a[0], b[1] - a[1]) / (grid.resolution * 0.5)))
     t = np.linspace(0.0, 1.0, n)

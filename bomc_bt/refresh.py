@@ -18,6 +18,13 @@ inserted where it lengthens the tour least, while the whole tour stays within ``
 times the length of the pass's plan (an orienteering problem; greedy cheapest insertion). Each stop faces the
 ``hfov``-wide window holding most of that age; Look Around, on arrival, turns to the rest.
 
+The nodes the pass left unresolved come first (:meth:`~bomc_bt.graph.ObjectGraph.unresolved`):
+neither confirmed nor removed, because every view the pass had of them was past another
+object (a table against a wall, the chair pushed in at it in front) or it had none, or
+missed by a near, clear view since they were last seen. A stop with a clear view of each
+decides: the detector confirms it, or its misses run on to a removal in this pass
+instead of one or more passes later.
+
 With ``association.miss_spacing``, a node whose run of misses would remove it, all seen
 from one place (a robot turning at a doorway), waits for a look from a second place
 (:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`). Those nodes are planned
@@ -38,7 +45,7 @@ import numpy as np
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import PRESENT, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.monitoring import line_of_sight
+from bomc_bt.monitoring import camera_clear, line_of_sight
 from bomc_bt.viewpoints import best_heading
 
 DistanceField = Callable[[tuple[float, float]], Callable[[np.ndarray], np.ndarray]]
@@ -67,6 +74,10 @@ class RefreshParams:
     # node (12 bearings each) that are free with second_look_clearance of room round them
     second_look_radii: tuple[float, ...] = (1.5, 2.5)
     second_look_clearance: float = 0.45  # [m] room a second-look place needs (FindDetour's clearance)
+    # look first at the nodes the pass left unresolved (neither confirmed nor removed: seen
+    # only past other objects, or not at all, or missed up close since), from places with a
+    # clear view of them; False: only stale nodes and second looks, as before
+    unresolved: bool = True
 
     def __post_init__(self) -> None:
         if min(self.stale_after, self.budget, self.stop_cost, self.max_viewpoints, self.arrival_tolerance) < 0:
@@ -89,28 +100,39 @@ def stale_nodes(nodes: Iterable[Node], now: float, stale_after: float) -> list[N
 def object_boxes(graph: ObjectGraph, skip: Iterable[int] = (), half: float = 0.25) -> np.ndarray:
     """(M, 4) floor boxes x0, y0, x1, y1 of the graph's present objects but ``skip``: each
     node's footprint, or a square ``half`` m either side of it where it has none."""
+    boxes, _ = object_boxes_by_id(graph, skip, half)
+    return boxes
+
+
+def object_boxes_by_id(graph: ObjectGraph, skip: Iterable[int] = (), half: float = 0.25
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`object_boxes` and the id of each box's node, (M,)."""
     skip = set(skip)
+    nodes = [n for n in graph.nodes.values() if n.state == PRESENT and n.id not in skip]
     boxes = [n.footprint if n.footprint is not None else
              np.array([n.position[0] - half, n.position[1] - half, n.position[0] + half, n.position[1] + half])
-             for n in graph.nodes.values() if n.state == PRESENT and n.id not in skip]
-    return np.array(boxes, dtype=float).reshape(-1, 4)
+             for n in nodes]
+    return np.array(boxes, dtype=float).reshape(-1, 4), np.array([n.id for n in nodes], dtype=np.int64)
 
 
 def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, candidates: np.ndarray,
                        start: Pose2D, budget: float, distances: DistanceField,
                        params: RefreshParams | None = None,
-                       second_looks: Sequence[tuple[Node, tuple[float, float]]] = (),
-                       spacing: float = 0.0, occluders: np.ndarray | None = None) -> list[Pose2D]:
+                       second_looks: Sequence[tuple[Node, tuple[float, float] | None]] = (),
+                       spacing: float = 0.0, occluders: np.ndarray | None = None,
+                       occluder_ids: np.ndarray | None = None) -> list[Pose2D]:
     """Stops (with the heading to face) that bring the stalest nodes back into sight.
 
     ``candidates`` (K, 2) are places the robot has reached; ``budget`` is in metres of
-    driving; ``distances`` gives path lengths on the grid. ``second_looks``: nodes whose
-    removal waits for a look from a place at least ``spacing`` (plus ``arrival_tolerance``)
-    from the one given with each
-    (:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`); their stops are chosen
-    first, the most of them per metre, then the stale nodes' by age, and none looks at
-    them past one of ``occluders`` (M, 4: the other objects' boxes x0, y0, x1, y1; a
-    miss counts only where the view is clear). The stops come in driving order.
+    driving; ``distances`` gives path lengths on the grid. ``second_looks``: nodes a look
+    decides, each with a place or None. A node given a place waits for a look from at least
+    ``spacing`` (plus ``arrival_tolerance``) from it
+    (:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`); one given None was left
+    unresolved by the pass (:meth:`~bomc_bt.graph.ObjectGraph.unresolved`) and may be
+    looked at from anywhere. Their stops are chosen first, the most of them per metre,
+    then the stale nodes' by age, and none looks at them past one of ``occluders`` (M, 4:
+    the objects' boxes x0, y0, x1, y1; with ``occluder_ids`` (M,), a node's own box is not
+    in its way; a miss counts only where the view is clear). The stops come in driving order.
     """
     params = params or RefreshParams()
     reached = np.asarray(candidates, dtype=float).reshape(-1, 2)
@@ -125,12 +147,15 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
     age = np.array([0.0] * len(second_looks) + [now - n.last_seen for n in stale])
     sight = _sight(grid, candidates, targets, params)
     if second_looks:
-        places = np.array([place for _, place in second_looks], dtype=float).reshape(-1, 2)
+        places = np.array([(np.nan, np.nan) if place is None else place for _, place in second_looks],
+                          dtype=float).reshape(-1, 2)
         apart = np.hypot(candidates[:, None, 0] - places[None, :, 0], candidates[:, None, 1] - places[None, :, 1])
-        sight[:, :len(second_looks)] &= apart >= spacing + params.arrival_tolerance
+        sight[:, :len(second_looks)] &= np.isnan(apart) | (apart >= spacing + params.arrival_tolerance)
         if occluders is not None and len(occluders):
             k, n = np.nonzero(sight[:, :len(second_looks)])  # only the pairs in sight: memory stays small
-            hidden = _behind(candidates[k], targets[n], occluders)
+            own = None if occluder_ids is None else \
+                np.asarray(occluder_ids)[None, :] == np.array([nodes[i].id for i in n])[:, None]
+            hidden = _behind(candidates[k], targets[n], occluders, own=own)
             sight[k[hidden], n[hidden]] = False
         sight[len(reached):, len(second_looks):] = False  # places round a node are for its second look only
     covered = np.zeros(len(nodes), dtype=bool)
@@ -188,8 +213,9 @@ class _Route:
 
 
 def _sight(grid: OccupancyGrid, candidates: np.ndarray, targets: np.ndarray, params: RefreshParams) -> np.ndarray:
-    """(K, N): candidate k sees target n -- in range, and a free line to half a metre short."""
-    free = grid.free_mask()
+    """(K, N): candidate k sees target n -- in range, and a line the camera sees along
+    (:func:`~bomc_bt.monitoring.camera_clear`) to half a metre short."""
+    free = camera_clear(grid)
     d = np.hypot(targets[None, :, 0] - candidates[:, None, 0], targets[None, :, 1] - candidates[:, None, 1])
     sight = (d >= params.min_range) & (d <= params.view_range)
     for k, n in zip(*np.nonzero(sight), strict=True):
@@ -215,9 +241,11 @@ def second_look_places(grid: OccupancyGrid, nodes: Sequence[Node], params: Refre
     return places[ok]
 
 
-def _behind(starts: np.ndarray, ends: np.ndarray, boxes: np.ndarray, short: float = 0.3) -> np.ndarray:
+def _behind(starts: np.ndarray, ends: np.ndarray, boxes: np.ndarray, short: float = 0.3,
+            own: np.ndarray | None = None) -> np.ndarray:
     """(P,): the line from ``starts[p]`` to ``ends[p]`` (less its last ``short`` m) crosses one
-    of ``boxes`` (M, 4: x0, y0, x1, y1), by the slab test."""
+    of ``boxes`` (M, 4: x0, y0, x1, y1), by the slab test; ``own`` (P, M) marks boxes a line
+    does not count (its target's own)."""
     a = starts[:, None, :]  # (P, 1, 2)
     step = ends[:, None, :] - a  # (P, 1, 2)
     length = np.linalg.norm(step, axis=-1)
@@ -229,4 +257,5 @@ def _behind(starts: np.ndarray, ends: np.ndarray, boxes: np.ndarray, short: floa
     near = np.where(step == 0, np.where(inside, -np.inf, np.inf), np.minimum(t0, t1))
     far = np.where(step == 0, np.where(inside, np.inf, -np.inf), np.maximum(t0, t1))
     enter, leave = near.max(axis=-1), far.min(axis=-1)  # (P, M)
-    return ((enter <= leave) & (leave >= 0.0) & (enter <= end)).any(axis=-1)
+    crossed = (enter <= leave) & (leave >= 0.0) & (enter <= end)
+    return (crossed & ~own if own is not None else crossed).any(axis=-1)

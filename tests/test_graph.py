@@ -75,6 +75,18 @@ def test_ids_never_reused_even_after_removal():
 
 
 # ---------------------------------------------------------------- robust mode
+def test_unresolved_nodes_are_those_the_pass_neither_confirmed_nor_removed():
+    """Loaded from pass 1, pass 2 confirms chair 0, misses chair 1 once and never sees
+    chair 2: 1 and 2 stand on older evidence only; once 1's misses remove it, only 2 is left."""
+    g = ObjectGraph(ROBUST, [node(0, "chair", 0, 0), node(1, "chair", 5, 0), node(2, "chair", 9, 0)])
+    assert [n.id for n in g.unresolved(2)] == [0, 1, 2]
+    g.associate([obs("chair", 0.1, 0)], [0, 1], 2, 0.0)
+    assert [n.id for n in g.unresolved(2)] == [1, 2]
+    for t in (1.0, 2.0):
+        g.associate([obs("chair", 0.1, 0)], [0, 1], 2, t)
+    assert [n.id for n in g.unresolved(2)] == [2] and 1 not in g.nodes
+
+
 def test_robust_keeps_node_missed_fewer_than_confirm_times():
     g = ObjectGraph(ROBUST, [node(0, "chair", 0, 0), node(1, "chair", 5, 0)])
     assert g.associate([], [0], 1, 0.0) == []

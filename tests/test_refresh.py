@@ -144,6 +144,31 @@ def test_a_node_awaiting_a_second_look_comes_first_and_is_seen_from_another_plac
     assert [(s.x, s.y) for s in stops] == [(19.0, 1.0)]  # the box moved out of the line of sight
 
 
+def test_a_node_the_pass_left_unresolved_is_looked_at_first_from_where_no_object_stands_in_the_way():
+    """A table (its footprint 1.2 m long) by the wall, a chair pushed in at it in front: from
+    the reached places straight in front, the chair hides the table's middle and no miss
+    counts. The look comes first (before an older stale node), from a place with a clear
+    line past the chair's box; the table's own box is in nobody's way."""
+    table, stale = node(0, 20.0, 3.5, None), node(1, 9.0, 3.0, 50.0)
+    table.category = "table"
+    boxes = np.array([[19.7, 2.9, 20.3, 3.9], [19.75, 2.3, 20.25, 2.8]])  # the table's, the chair's
+    ids = np.array([0, 7])
+    start = Pose2D(15.0, 1.0, 0.0)
+    ahead = np.array([[20.0, 1.0], [13.0, 1.0], [24.0, 1.0]])  # only (20, 1) stands behind the chair
+    plan = dict(now=NOW, start=start, distances=euclidean, params=RefreshParams(second_look_radii=()))
+    stops = refresh_viewpoints(corridor(), [stale], candidates=ahead, budget=12.0, **plan,
+                               second_looks=[(table, None)], occluders=boxes, occluder_ids=ids)
+    assert [(s.x, s.y) for s in stops][:1] == [(24.0, 1.0)] and faces(stops[0], table)
+    # the table's own box counted as in its way: no place would see it
+    blind = refresh_viewpoints(corridor(), [], candidates=ahead, budget=12.0, **plan,
+                               second_looks=[(table, None)], occluders=boxes)
+    assert blind == []
+    # no place given: no spacing rule, so the place in front is fine once the chair is gone
+    clear = refresh_viewpoints(corridor(), [], candidates=ahead[:1], budget=12.0, **plan,
+                               second_looks=[(table, None)], spacing=5.0, occluders=boxes[:1], occluder_ids=ids[:1])
+    assert [(s.x, s.y) for s in clear] == [(20.0, 1.0)]
+
+
 def test_a_second_look_may_stand_on_free_floor_round_the_node_where_the_robot_never_stopped():
     """Reached places are sparse: the one in the budget is where the misses were seen. A
     free place round the node (2.5 m from it, with room for the robot) is used instead;

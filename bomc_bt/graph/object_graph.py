@@ -101,6 +101,17 @@ class ObjectGraph:
         """Ids of present nodes awaiting confirmation of their removal (robust mode)."""
         return sorted(self._pending)
 
+    def unresolved(self, session: int) -> list[Node]:
+        """Present nodes that pass ``session`` has neither confirmed nor removed: not matched
+        in it, or missed since their last match by at least one near, clear view (a run of
+        misses weighing 1 or more, :mod:`.evidence`; misses from afar weigh less and are what
+        a detector does at that range). The map shows them on older evidence only, so a look
+        that sees their place clearly decides: the object is confirmed, or its misses run on
+        to a removal (an object taken away where the only views this pass had were past
+        another object)."""
+        return [v for v in self.nodes.values()
+                if v.state == PRESENT and (v.last_session != session or self.evidence.run(v.id) >= 1.0)]
+
     def awaiting_second_look(self) -> list[tuple[Node, tuple[float, float]]]:
         """Present nodes whose run of misses is long enough to remove them but was seen from
         one place only (``miss_spacing``), each with that place: a look from elsewhere decides."""

@@ -154,6 +154,26 @@ def test_plan_refresh_stops_look_again_from_another_place_at_a_node_missed_from_
     assert (stop.x, stop.y) == (6.0, 5.0)
 
 
+def test_plan_refresh_stops_look_at_a_node_the_pass_left_unresolved_past_no_other_object(ctx, robot):
+    """Session 2 never matched the table session 1 mapped by the west wall: every frame saw it
+    past the chair pushed in at it, in the lidar's shadow (unknown on the map). The leaf plans a
+    stop where the robot has been that sees the table clear of the chair, not the one behind it."""
+    robot.grid.data[88:112, 4:40] = -1  # the table's and chair's shadow on the saved map
+    state = start_pass(ctx, (3.0, 8.0), (3.5, 5.0), (6.0, 5.0))
+    for _ in range(3):
+        state.mark(state.next(), VISITED)
+    table = Node(0, "table", np.array([1.0, 5.0, 0.4]), 0.9, 1, 1, footprint=np.array([0.6, 4.4, 1.3, 5.6]))
+    chair = Node(1, "chair", np.array([1.7, 5.0, 0.45]), 0.9, 1, 2, footprint=np.array([1.45, 4.7, 1.95, 5.3]))
+    ctx.session, ctx.graph = 2, ObjectGraph(AssociationParams(mode="robust", confirm_detections=1), [table, chair])
+    robot.advance(10.0)  # nothing is stale
+    leaf = PlanRefreshStops("Refresh", RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=()), ctx)
+    assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == 1
+    assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 left unresolved"
+    stop = state.waypoint(len(state.states) - 1)
+    assert (stop.x, stop.y) == (3.0, 8.0)
+    assert abs(math.atan2(5.0 - 8.0, 1.0 - 3.0) - stop.yaw) < math.radians(25.0)
+
+
 def test_plan_refresh_stops_with_nothing_stale_adds_an_empty_phase(ctx, robot):
     state = start_pass(ctx, (2, 5))
     state.mark(state.next(), VISITED)
