@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.monitoring import camera_clear, line_of_sight, unverified_headings
+from bomc_bt.monitoring import camera_clear, sees_node, unverified_headings
 
 
 @dataclass
@@ -68,8 +68,8 @@ class HeadTurns:
 def plan_head_turns(graph, pose: Pose2D | None, session: int, grid: OccupancyGrid, params: LookAroundParams,
                     hfov_deg: float, now: float) -> HeadTurns:
     """The head turns for a waypoint reached at ``pose`` (none without a pose). While a node
-    whose misses are being counted lies in front of the camera, the robot first holds the
-    heading it arrived with for ``dwell`` (:func:`pending_in_front`)."""
+    a near, clear view has just missed lies in front of the camera, the robot first holds
+    the heading it arrived with for ``dwell`` (:func:`pending_in_front`)."""
     headings = [] if pose is None else unverified_headings(
         graph, pose, session, grid, params.radius, math.radians(hfov_deg), params.max_turns,
         now=now, stale_after=params.refresh_after)
@@ -88,13 +88,12 @@ def pending_in_front(graph, pose: Pose2D, grid: OccupancyGrid, radius: float, fo
     clear = camera_clear(grid)
     for vid in graph.pending():
         node = graph.nodes.get(vid)
-        if node is None or graph.evidence.run(vid) < 1.0:
+        if node is None or not graph.missed_up_close(vid):
             continue
         dx, dy = node.position[0] - pose.x, node.position[1] - pose.y
         distance = math.hypot(dx, dy)
         if not 0.5 <= distance <= radius or abs(wrap_angle(math.atan2(dy, dx) - pose.yaw)) > fov / 2:
             continue
-        stop = (pose.x + dx * (1 - 0.5 / distance), pose.y + dy * (1 - 0.5 / distance))
-        if line_of_sight(grid, clear, (pose.x, pose.y), stop):
+        if sees_node(grid, clear, (pose.x, pose.y), (node.position[0], node.position[1])):
             return True
     return False

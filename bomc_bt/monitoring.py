@@ -173,6 +173,16 @@ def line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float],
     return bool(inside.all() and free[rows, cols].all())
 
 
+def sees_node(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], b: tuple[float, float],
+              short: float = 0.5) -> bool:
+    """:func:`line_of_sight` from ``a`` to ``short`` metres before the node at ``b``: the
+    node's own cells (occupied, or unknown in its shadow) do not hide it."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    d = math.hypot(dx, dy)
+    stop = (a[0] + dx * (1 - short / d), a[1] + dy * (1 - short / d)) if d > short else a
+    return line_of_sight(grid, clear, a, stop)
+
+
 def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, radius: float,
                         fov: float, max_turns: int, now: float | None = None,
                         stale_after: float = 0.0) -> list[float]:
@@ -203,8 +213,7 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
         if distance > radius or distance < 0.5 or (node.last_session == session and node.id not in pending
                                                      and not _stale(node, now, stale_after)):
             continue
-        stop = (pose.x + dx * (1 - 0.5 / distance), pose.y + dy * (1 - 0.5 / distance))
-        if line_of_sight(grid, free, (pose.x, pose.y), stop):
+        if sees_node(grid, free, (pose.x, pose.y), (node.position[0], node.position[1])):
             bearings.append(math.atan2(dy, dx))
     headings: list[float] = []
     for b in sorted(bearings, key=lambda b: abs(wrap_angle(b - pose.yaw))):

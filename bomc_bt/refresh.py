@@ -45,7 +45,7 @@ import numpy as np
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import PRESENT, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.monitoring import camera_clear, line_of_sight
+from bomc_bt.monitoring import camera_clear, sees_node
 from bomc_bt.viewpoints import best_heading
 
 DistanceField = Callable[[tuple[float, float]], Callable[[np.ndarray], np.ndarray]]
@@ -219,9 +219,7 @@ def _sight(grid: OccupancyGrid, candidates: np.ndarray, targets: np.ndarray, par
     d = np.hypot(targets[None, :, 0] - candidates[:, None, 0], targets[None, :, 1] - candidates[:, None, 1])
     sight = (d >= params.min_range) & (d <= params.view_range)
     for k, n in zip(*np.nonzero(sight), strict=True):
-        a, b = candidates[k], targets[n]
-        stop = a + (b - a) * (1.0 - 0.5 / d[k, n]) if d[k, n] > 0.5 else a
-        sight[k, n] = line_of_sight(grid, free, (a[0], a[1]), (stop[0], stop[1]))
+        sight[k, n] = sees_node(grid, free, (candidates[k, 0], candidates[k, 1]), (targets[n, 0], targets[n, 1]))
     return sight
 
 

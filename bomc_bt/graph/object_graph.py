@@ -110,7 +110,12 @@ class ObjectGraph:
         to a removal (an object taken away where the only views this pass had were past
         another object)."""
         return [v for v in self.nodes.values()
-                if v.state == PRESENT and (v.last_session != session or self.evidence.run(v.id) >= 1.0)]
+                if v.state == PRESENT and (v.last_session != session or self.missed_up_close(v.id))]
+
+    def missed_up_close(self, node_id: int) -> bool:
+        """Its run of misses since the last detection weighs one full miss or more: at least
+        one near, clear view saw its place empty (:mod:`.evidence`)."""
+        return self.evidence.run(node_id) >= 1.0
 
     def awaiting_second_look(self) -> list[tuple[Node, tuple[float, float]]]:
         """Present nodes whose run of misses is long enough to remove them but was seen from
