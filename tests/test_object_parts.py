@@ -103,3 +103,41 @@ def test_a_whole_chair_keeps_apart_from_a_sliver_of_its_neighbour():
     _see(graph, [[view("chair", 0.4, 0.55, truncated=True)]] * 3, t)  # the neighbour, mostly hidden
     graph.pair_relocations(1, 99.0)
     assert len(graph.nodes) == 3  # chairs are small: both must be parts to join
+
+
+def _a_small_floor_of_tables_among_chairs() -> list:
+    """Three 1.6 m tables, chairs at every side: each seen cut off over 1.0 m of its length;
+    and one seen whole only end-on, 0.95 m across. Five tables on a 36 x 28 m floor, none
+    ever seen at full length: the longest table anyone saw is 1.0 m."""
+    frames = []
+    for y in (10.0, 14.0, 18.0):
+        frames += [[view("table", 9.4, 10.4, truncated=True, y0=y - 0.4, y1=y + 0.4)]] * 3
+    return frames + [[view("table", 20.0, 20.1, y0=-0.475, y1=0.475)]] * 3
+
+
+def _ends(graph: ObjectGraph, t: float, near: tuple[float, float], far: tuple[float, float]) -> None:
+    """Each end of a table alone (a chair hides the middle), as wide as the table plus the
+    mask's bleed (0.95 m) and only ``near`` / ``far`` (x0, x1) of its length."""
+    t = _see(graph, [[view("table", *near, truncated=True, y0=-0.475, y1=0.475)]] * 3, t)
+    _see(graph, [[view("table", *far, truncated=True, y0=-0.475, y1=0.475)]] * 3, t)
+
+
+def test_ends_as_wide_as_the_table_join_on_a_floor_where_no_table_was_seen_at_full_length():
+    graph = ObjectGraph(AssociationParams())
+    t = _see(graph, _a_small_floor_of_tables_among_chairs())
+    _ends(graph, t, (-0.8, -0.3), (0.3, 0.8))
+    assert len(graph.nodes) == 6
+    graph.pair_relocations(1, 99.0)
+    # each end's longest side (0.95 m, across) is no part of a 1.0 m table, but along the
+    # pair's length it holds 0.5 m; the 1.6 m pair is the 1.0 m seen plus a chair's width hidden
+    assert len(graph.nodes) == 5
+    middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
+    assert abs(middle.position[0]) < 0.05 and np.allclose(middle.footprint[[0, 2]], [-0.8, 0.8])
+
+
+def test_two_tables_end_to_end_each_seen_at_its_far_end_stay_two():
+    graph = ObjectGraph(AssociationParams())
+    t = _see(graph, _a_small_floor_of_tables_among_chairs())
+    _ends(graph, t, (-1.2, -0.65), (0.65, 1.2))  # two 1.2 m tables meeting at x = 0: 2.4 m in all
+    graph.pair_relocations(1, 99.0)
+    assert len(graph.nodes) == 6

@@ -343,12 +343,12 @@ class RobustPolicy:
         (:func:`~bomc_bt.graph.parts.part_pairs`) become one, in the middle."""
         if not self.extents.boxes or not self.params.separate_neighbours:
             return []
-        seen = [v for v in graph.nodes.values() if v.last_session == session]
-        events: list[Event] = []
+        seen, events = [v for v in graph.nodes.values() if v.last_session == session], []
         reference = reference_lengths(seen, self.extents.longest_whole(graph),
                                       lambda c: self.params.distance(c) + BIG_MARGIN)
         big = {c for c, length in reference.items() if length > self.params.distance(c) + BIG_MARGIN}
-        for a, b in part_pairs(seen, reference, BIG_MARGIN, self.co_observed.seen_apart, big):
+        touch = self.params.footprint_touch
+        for a, b in part_pairs(seen, reference, BIG_MARGIN, self.co_observed.seen_apart, big, touch):
             keep, drop = (a, b) if (a.observations, -a.id) >= (b.observations, -b.id) else (b, a)
             self.extents.join(graph, keep, drop)
             graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
