@@ -338,3 +338,26 @@ def test_a_resumed_pass_still_knows_which_node_a_waiting_sighting_began_beside()
     del saved["waiting"][0]["beside"]  # a resume point written before the field existed
     resumed.policy.tentative.restore(saved)
     assert [t.beside for t in resumed.policy.tentative.waiting] == [None]
+
+
+def test_two_chairs_first_seen_together_and_confirmed_in_one_frame_are_two_nodes():
+    """Environment-A-size floor, seed 9595, pass 1: two chairs 0.65 m apart along a table's
+    side (delta_c 0.7 m) are first seen together, both new, and the next frame shows both
+    again. Both sightings are confirmed in that frame; the second must not be dropped as a
+    second view of the first chair's node just added: the frame names them apart (their
+    boxes do not touch). Dropped, its later views alone dragged the first chair's node over
+    to it, and the second chair was never mapped."""
+    g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
+    assert g.associate([cut(-0.2, 0.2), cut(0.45, 0.85)], [], 1, 0.0) == []
+    events = g.associate([cut(-0.2, 0.2), cut(0.45, 0.85)], [], 1, 0.5)
+    assert [e.kind for e in events] == ["added", "added"]
+    assert sorted(round(float(v.position[0]), 2) for v in g.nodes.values()) == [0.0, 0.65]
+
+
+def test_one_chair_in_two_touching_boxes_of_one_frame_is_still_one_node():
+    """The rule above needs the boxes apart: two touching boxes of one category in one frame,
+    both new, are one object seen twice (a detector's duplicate box), and make one node."""
+    g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
+    g.associate([boxed("chair", -0.25, -0.25, 0.25, 0.25), boxed("chair", 0.1, -0.25, 0.6, 0.25)], [], 1, 0.0)
+    g.associate([boxed("chair", -0.25, -0.25, 0.25, 0.25), boxed("chair", 0.1, -0.25, 0.6, 0.25)], [], 1, 0.5)
+    assert len(g.nodes) == 1

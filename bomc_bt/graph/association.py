@@ -52,3 +52,8 @@ def near_any(o: Observation, nodes: Sequence[Node], gate: float, scale: np.ndarr
         v.category == o.category and dist2_scalar(v.position * scale, o.position * scale) <= gate * gate
         for v in nodes
     )
+
+
+def never_looked(graph: ObjectGraph, at: Node | Observation) -> bool:
+    """Whether no earlier pass looked where ``at`` stands (``ObjectGraph.never_looked``)."""
+    return graph.never_looked is not None and graph.never_looked(at.position)

@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bomc_bt.graph.association import near_any
+from bomc_bt.graph.association import near_any, never_looked
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.confusions import confused
 from bomc_bt.graph.evidence import misses_needed
@@ -136,17 +136,19 @@ class RobustPolicy:
                 beside.append(next((int(v) for v in near[j][0] if int(v) in taker), None))
         confirmed = self.tentative.confirm_frame([obs[j] for j in fresh], [self.gate(obs[j]) for j in fresh], stamp,
                                                  beside)
-        placed: list[Node] = []  # nodes added or moved in this frame
-        for k, j in enumerate(fresh):
-            o = obs[j]
-            if not confirmed[k] or near_any(o, placed, self.gate(o), graph.index.scale):
+        placed: dict[int, Observation] = {}  # nodes added or moved in this frame: the view that placed each
+        for k, o in ((k, obs[j]) for k, j in enumerate(fresh)):
+            apart = {v for v, view in placed.items() if self.extents.beside(o, [view])}
+            same = [graph.nodes[v] for v in placed.keys() - apart]  # a view beside one is another object
+            if not confirmed[k] or near_any(o, same, self.gate(o), graph.index.scale):
                 continue
             moved = self._move_candidate(graph, o)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
-            placed.append(graph.nodes[events[-1].node_id])
+            placed[(v := graph.nodes[events[-1].node_id]).id] = o
             if not moved:
-                self.extents.grow(graph, placed[-1], o, self.gate(o))
-                self.co_observed.add(placed[-1].id, self.tentative.beside_of[k])  # its first frame showed both
+                self.extents.grow(graph, v, o, self.gate(o))
+                for w in (*apart, self.tentative.beside_of[k]):  # its first frame showed both
+                    self.co_observed.add(v.id, w)
         hidden = set(in_view or ()) - set(exp)
         events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
                                                     before))
@@ -286,7 +288,7 @@ class RobustPolicy:
             return None
         gate = self.params.distance(v.category)
         near = [(d, n.id, n) for n, d in graph.within(v.category, v.position, self.params.move_radius)
-                if n.id != v.id and n.first_session == session and (d <= gate or not _never_looked(graph, n))]
+                if n.id != v.id and n.first_session == session and (d <= gate or not never_looked(graph, n))]
         return min(near, key=lambda t: t[:2])[2] if near else None
 
     def _moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
@@ -370,7 +372,7 @@ class RobustPolicy:
         gate, none where no earlier pass looked). A node with only some misses is no
         candidate: one missed frame let a neighbouring chair, seen for the first time, take
         its id. Its absence confirmed, :meth:`_arrival` still makes it a move."""
-        fresh = _never_looked(graph, o)
+        fresh = never_looked(graph, o)
         best: tuple[float, int, Node] | None = None
         for v in graph.removed_this_session():
             if v.category != o.category:
@@ -393,8 +395,3 @@ class RobustPolicy:
         graph.set_confidence(v, float(o.confidence))
         graph.touch(v, session, stamp)
         return graph.report("moved", v, session, stamp, previous)
-
-
-def _never_looked(graph: ObjectGraph, at: Node | Observation) -> bool:
-    """Whether no earlier pass looked where ``at`` stands (``ObjectGraph.never_looked``)."""
-    return graph.never_looked is not None and graph.never_looked(at.position)
