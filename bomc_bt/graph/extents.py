@@ -87,8 +87,8 @@ class NodeExtents:
         mapped (issue 17: chair-108 of a static Environment-A-size floor, seed 5353). Boxes
         that touch are still two objects when they share less than ``footprint_overlap`` of
         the smaller one: masks bleed, and two such chairs' boxes, each 0.8 m long, overlapped
-        by 0.03 m (Environment-A-size floor, seed 9595: one node for both chairs of a
-        table's side, the second never mapped, 5 of the 8 chairs its first pass missed)."""
+        by 0.03 m (Environment-A-size floor, seed 9595, pass 1: one node for both chairs of
+        a table's side, the second never mapped)."""
         if not self.boxes or not self.params.separate_neighbours or o.box is None:
             return False
         return all(t.box is not None and not overlapping(t.box[None], o.box, self.params.footprint_overlap)[0]
