@@ -21,7 +21,7 @@ from bomc_bt.graph import PRESENT
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
 from bomc_bt.planner import GridPlanner
-from bomc_bt.refresh import RefreshParams, object_boxes_by_id, refresh_viewpoints, stale_nodes
+from bomc_bt.refresh import RefreshParams, object_boxes_by_id, refresh_viewpoints, sighting_looks, stale_nodes
 from bomc_bt.site import write_json
 from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
 from bomc_bt.tree.leaf import Leaf
@@ -189,7 +189,8 @@ class PlanRefreshStops(PlanPhase):
         waiting = {n.id for n, _ in second_looks}
         unresolved = [n for n in ctx.graph.unresolved(ctx.session) if n.id not in waiting] \
             if self.params.unresolved else []
-        looks = second_looks + [(n, None) for n in unresolved]
+        sighted = sighting_looks(ctx.graph.unconfirmed_sightings()) if self.params.unconfirmed else []
+        looks = second_looks + [(n, None) for n in unresolved] + [(s, None) for s in sighted]
         grid = ctx.robot.live_map()
         distances = GridPlanner(grid, ctx.config.sim.planner).path_lengths_from
         budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
@@ -199,5 +200,6 @@ class PlanRefreshStops(PlanPhase):
         self.extend(stops)
         self.feedback_message = f"{len(stops)} refresh stops for {len(stale)} stale nodes" + (
             f" and {len(second_looks)} awaiting a second look" if second_looks else "") + (
-            f" and {len(unresolved)} left unresolved" if unresolved else "")
+            f" and {len(unresolved)} left unresolved" if unresolved else "") + (
+            f" and {len(sighted)} unconfirmed sightings" if sighted else "")
         return Status.SUCCESS

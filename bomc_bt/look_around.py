@@ -29,6 +29,9 @@ class LookAroundParams:
     # [s] robot time: a node this pass confirmed longer ago gets a look again, in case it
     # was taken away after the camera passed (0: only nodes not confirmed yet)
     refresh_after: float = 600.0
+    # turn also towards first sightings the pass has not confirmed (an object the camera caught
+    # in one frame on the way; :meth:`~bomc_bt.graph.ObjectGraph.unconfirmed_sightings`)
+    unconfirmed: bool = True
 
     def __post_init__(self) -> None:
         if self.radius <= 0 or self.max_turns < 0 or self.dwell < 0 or self.timeout <= 0:
@@ -45,6 +48,8 @@ class HeadTurns:
     dwell: float  # robot seconds facing a heading once the turn succeeded
     deadline: float  # robot time after which no new turn starts (and a turn in flight is dropped)
     dwell_until: float | None = field(default=None)
+    # unconfirmed first sightings the headings face (the leaf marks them looked at, one look each)
+    faced: list = field(default_factory=list)
 
     def dwelling(self, now: float) -> bool:
         """True while the robot faces the last heading it turned to."""
@@ -70,11 +75,21 @@ def plan_head_turns(graph, pose: Pose2D | None, session: int, grid: OccupancyGri
     """The head turns for a waypoint reached at ``pose`` (none without a pose). While a node
     a near, clear view has just missed lies in front of the camera, the robot first holds
     the heading it arrived with for ``dwell`` (:func:`pending_in_front`)."""
+    fov = math.radians(hfov_deg)
+    sightings = graph.unconfirmed_sightings() if params.unconfirmed and pose is not None else []
     headings = [] if pose is None else unverified_headings(
-        graph, pose, session, grid, params.radius, math.radians(hfov_deg), params.max_turns,
-        now=now, stale_after=params.refresh_after)
-    hold = pose is not None and pending_in_front(graph, pose, grid, params.radius, math.radians(hfov_deg))
-    return HeadTurns(headings, params.dwell, now + params.timeout, now + params.dwell if hold else None)
+        graph, pose, session, grid, params.radius, fov, params.max_turns,
+        now=now, stale_after=params.refresh_after, sightings=[t.position for t in sightings])
+    hold = pose is not None and pending_in_front(graph, pose, grid, params.radius, fov)
+    faced = [t for t in sightings if _faced(pose, t.position, headings, params.radius, fov)]
+    return HeadTurns(headings, params.dwell, now + params.timeout, now + params.dwell if hold else None, faced)
+
+
+def _faced(pose: Pose2D, place, headings: list[float], radius: float, fov: float) -> bool:
+    """Whether ``place`` lies within ``radius`` and half ``fov`` of one of ``headings`` from ``pose``."""
+    dx, dy = float(place[0]) - pose.x, float(place[1]) - pose.y
+    bearing = math.atan2(dy, dx)
+    return math.hypot(dx, dy) <= radius and any(abs(wrap_angle(bearing - h)) <= fov / 2 for h in headings)
 
 
 def pending_in_front(graph, pose: Pose2D, grid: OccupancyGrid, radius: float, fov: float) -> bool:
@@ -97,3 +112,4 @@ def pending_in_front(graph, pose: Pose2D, grid: OccupancyGrid, radius: float, fo
         if sees_node(grid, clear, (pose.x, pose.y), (node.position[0], node.position[1])):
             return True
     return False
+

@@ -12,6 +12,7 @@ events to the store, and accumulates the area the camera actually observed.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import InitVar, dataclass, field
 from typing import Any
 
@@ -185,7 +186,7 @@ def sees_node(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], b:
 
 def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, radius: float,
                         fov: float, max_turns: int, now: float | None = None,
-                        stale_after: float = 0.0) -> list[float]:
+                        stale_after: float = 0.0, sightings: Sequence[np.ndarray] = ()) -> list[float]:
     """Headings to turn to so the camera checks nearby nodes this pass has not confirmed.
 
     A node not matched in this session (or with misses pending) is either still there,
@@ -201,6 +202,10 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
     never looks back. Where the pass brings the robot near such a node again, a turn of
     the head shows whether it is still there (the paper's future work: revisit regions
     where change is expected).
+
+    ``sightings``: places (x, y[, z]) of first sightings the pass has not confirmed
+    (:meth:`~bomc_bt.graph.ObjectGraph.unconfirmed_sightings`): an object the camera caught in
+    one frame on the way here; a turn towards it and the dwell after it add it, or not.
     """
     square = np.array([[pose.x - radius, pose.y - radius], [pose.x + radius, pose.y - radius],
                        [pose.x + radius, pose.y + radius], [pose.x - radius, pose.y + radius]])
@@ -214,6 +219,10 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
                                                      and not _stale(node, now, stale_after)):
             continue
         if sees_node(grid, free, (pose.x, pose.y), (node.position[0], node.position[1])):
+            bearings.append(math.atan2(dy, dx))
+    for place in sightings:
+        dx, dy = float(place[0]) - pose.x, float(place[1]) - pose.y
+        if 0.5 <= math.hypot(dx, dy) <= radius and sees_node(grid, free, (pose.x, pose.y), (place[0], place[1])):
             bearings.append(math.atan2(dy, dx))
     headings: list[float] = []
     for b in sorted(bearings, key=lambda b: abs(wrap_angle(b - pose.yaw))):

@@ -364,3 +364,25 @@ def test_two_chairs_whose_bled_boxes_touch_are_two_nodes_a_duplicate_box_is_one(
         for t in (0.0, 0.5):
             g.associate([boxed("chair", -0.25, -0.25, 0.25, 0.25), boxed("chair", x0, -0.25, x1, 0.25)], [], 1, t)
         assert len(g.nodes) == nodes, (x0, x1)
+
+
+def test_a_first_sighting_left_unconfirmed_waits_for_a_look_one_confirmed_or_at_a_node_does_not():
+    """A bin caught in one frame while the robot turned is not forgotten with its ttl: the pass
+    keeps it for a second look. A sighting a later frame confirmed is a node, and one at a node
+    of its category is that node's, so neither asks for a look; a new pass starts empty."""
+    params = AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0)
+    g = ObjectGraph(params, [node(0, "chair", 5.0, 5.0)])
+    g.associate([obs("trash bin", 3.0, 1.0)], [], 2, 0.0)  # seen once
+    g.associate([obs("door", 9.0, 9.0)], [], 2, 1.0)
+    g.associate([obs("door", 9.05, 9.0)], [], 2, 2.0)  # confirmed: a node
+    g.associate([obs("chair", 5.1, 5.0)], [], 2, 3.0)  # the chair's node takes it
+    assert [t.category for t in g.unconfirmed_sightings()] == ["trash bin"]  # still waiting
+    g.associate([], [], 2, 30.0)  # its ttl ran out
+    waiting = g.unconfirmed_sightings()
+    assert [(t.category, float(t.position[0])) for t in waiting] == [("trash bin", 3.0)]
+    assert not any(n.category == "trash bin" for n in g.nodes.values())
+    resumed = ObjectGraph(params, [node(0, "chair", 5.0, 5.0)])  # a pass resumed after a crash keeps it
+    resumed.restore_pass_state(g.pass_state(), {})
+    assert [t.category for t in resumed.unconfirmed_sightings()] == ["trash bin"]
+    g.associate([], [], 3, 40.0)
+    assert g.unconfirmed_sightings() == []

@@ -125,3 +125,38 @@ def test_the_robot_holds_its_heading_while_a_node_in_front_is_being_missed():
     g.associate([Observation("table", table.position.copy(), 0.9)], [0], 2, 9.6)
     assert g.pending() == [1]
     assert not plan_head_turns(g, facing_east, 2, grid, params, 60.0, 10.0).dwelling(10.0)
+
+
+def test_a_waypoint_turns_towards_an_object_the_camera_caught_once_on_the_way_not_through_a_wall():
+    """A trash bin seen in one frame at (2, 5) and a chair at (8, 5), behind the wall, both
+    unconfirmed: the waypoint at (5, 5), facing east, turns west to the bin and dwells there.
+    With ``unconfirmed: false`` (or once a second frame confirmed the bin) it has no reason to turn."""
+    g = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
+    g.associate([Observation("trash bin", np.array([2.0, 5.0, 0.3]), 0.9),
+                 Observation("chair", np.array([8.0, 6.5, 0.5]), 0.9)], [], 2, 11.0)
+    pose = Pose2D(5.0, 5.0, 0.0)
+    turns = plan_head_turns(g, pose, 2, open_room(), LookAroundParams(refresh_after=0.0), 60.0, 12.0)
+    assert len(turns.headings) == 1 and abs(abs(turns.headings[0]) - math.pi) < 1e-6
+    assert [t.category for t in turns.faced] == ["trash bin"]
+    off = LookAroundParams(refresh_after=0.0, unconfirmed=False)
+    assert plan_head_turns(g, pose, 2, open_room(), off, 60.0, 12.0).headings == []
+    confirmed = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
+    for t in (11.0, 12.0):
+        confirmed.associate([Observation("trash bin", np.array([2.0, 5.0, 0.3]), 0.9)], [], 2, t)
+    assert plan_head_turns(confirmed, pose, 2, open_room(), LookAroundParams(refresh_after=0.0), 60.0,
+                           12.5).headings == []
+
+
+def test_a_place_seen_once_gets_one_look_a_false_positive_does_not_turn_every_waypoint_near_it():
+    """The look at (2, 5) saw nothing there (a false positive): the next waypoints, here and
+    at (4, 6), do not turn to it again, and the refresh tour does not plan a stop for it."""
+    g = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2, tentative_ttl=10.0))
+    g.associate([Observation("trash bin", np.array([2.0, 5.0, 0.3]), 0.9)], [], 2, 11.0)
+    params = LookAroundParams(refresh_after=0.0)
+    turns = plan_head_turns(g, Pose2D(5.0, 5.0, 0.0), 2, open_room(), params, 60.0, 12.0)
+    g.mark_sightings_looked(turns.faced)  # what the leaf does
+    g.associate([], [], 2, 14.0)  # the dwell's frames: nothing there
+    g.associate([], [], 2, 30.0)  # its ttl ran out
+    assert plan_head_turns(g, Pose2D(5.0, 5.0, 0.0), 2, open_room(), params, 60.0, 31.0).headings == []
+    assert plan_head_turns(g, Pose2D(4.0, 6.0, 0.0), 2, open_room(), params, 60.0, 31.0).headings == []
+    assert g.unconfirmed_sightings() == []

@@ -28,6 +28,7 @@ from bomc_bt.graph.records import PRESENT, REMOVED, AssociationParams, Event, No
 from bomc_bt.graph.refinement import refinements
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.spatial import SpatialIndex
+from bomc_bt.graph.tentative import Sighting
 
 
 def make_policy(params: AssociationParams) -> AssociationPolicy:
@@ -111,6 +112,23 @@ class ObjectGraph:
         another object)."""
         return [v for v in self.nodes.values()
                 if v.state == PRESENT and (v.last_session != session or self.missed_up_close(v.id))]
+
+    def unconfirmed_sightings(self) -> list[Sighting]:
+        """First sightings of the current session never confirmed (robust mode,
+        :class:`~bomc_bt.graph.tentative.TentativeSightings`) with no present node of their
+        category within its association distance: an object the camera caught once, or a
+        false positive. A look at the place decides (:mod:`bomc_bt.refresh`)."""
+        tentative = getattr(self.policy, "tentative", None)
+        if tentative is None:
+            return []
+        return [t for t in tentative.unconfirmed()
+                if not self.within(t.category, t.position, self.params.distance(t.category))]
+
+    def mark_sightings_looked(self, sightings: Sequence[Sighting]) -> None:
+        """A head turn faces ``sightings`` now: they ask for no other look this pass."""
+        tentative = getattr(self.policy, "tentative", None)
+        if tentative is not None:
+            tentative.mark_looked(sightings)
 
     def missed_up_close(self, node_id: int) -> bool:
         """Its run of misses since the last detection weighs one full miss or more: at least

@@ -5,6 +5,11 @@ place in the next frames, a real object does. Robust association therefore adds 
 object only once ``confirm_detections`` frames, at least ``confirm_interval`` seconds
 apart, have seen it; a first sighting waits here for ``tentative_ttl`` seconds, and the
 observation that confirms it becomes the node, at the mean of the sightings.
+
+A sighting whose time runs out unconfirmed is kept as *lapsed* for the rest of the pass: an
+object the camera caught once while turning (a bin in a corner, a chair behind a table
+seen from a doorway 3.5 m away) is as likely as a false positive, and only a second look
+tells which. Refresh Stale plans that look (:mod:`bomc_bt.refresh`).
 """
 
 from __future__ import annotations
@@ -38,6 +43,8 @@ class TentativeSightings:
         self.params = params
         self.scale = scale  # (3,) distance weights, as the graph's index uses them
         self.waiting: list[Sighting] = []
+        self.lapsed: list[Sighting] = []  # sightings of this session whose time ran out unconfirmed
+        self.looked: list[tuple[str, np.ndarray]] = []  # (category, place) a head turn faced this session
         self._session: int | None = None
         # per observation of the last confirm_frame: the ``beside`` of the sighting it confirmed
         self.beside_of: list[int | None] = []
@@ -45,20 +52,41 @@ class TentativeSightings:
     def begin(self, session: int) -> None:
         """Sightings of an earlier session never confirm one of this session."""
         if session != self._session:
-            self.waiting = []
+            self.waiting, self.lapsed, self.looked = [], [], []
             self._session = session
+
+    def unconfirmed(self) -> list[Sighting]:
+        """The sightings of this session not (yet) confirmed, lapsed ones then those waiting,
+        but those at a place a head turn has faced already: one look a place, or a false
+        positive would turn the head at every waypoint near it."""
+        return [t for t in self.lapsed + self.waiting if not any(
+            c == t.category and float(np.linalg.norm((p - t.position) * self.scale)) <= self.params.distance(c)
+            for c, p in self.looked)]
+
+    def mark_looked(self, sightings: Sequence[Sighting]) -> None:
+        """A head turn faces ``sightings`` now (:mod:`bomc_bt.look_around`)."""
+        self.looked.extend((t.category, np.asarray(t.position, dtype=float).copy()) for t in sightings)
+
+    def _lapse(self, sighting: Sighting) -> None:
+        """Keep ``sighting`` as lapsed, unless one lapsed already lies within its category's
+        association distance (one place needs one look)."""
+        gate = self.params.distance(sighting.category)
+        if not any(t.category == sighting.category
+                   and float(np.linalg.norm((t.position - sighting.position) * self.scale)) <= gate
+                   for t in self.lapsed):
+            self.lapsed.append(sighting)
 
     def to_json(self) -> dict:
         """The sightings waiting, JSON-able (a resumed pass picks them up again)."""
-        return {"session": self._session,
-                "waiting": [{"category": t.category, "position": t.position.tolist(), "count": t.count,
-                             "last": t.last, "first": t.first, "beside": t.beside} for t in self.waiting]}
+        return {"session": self._session, "waiting": [_sighting_json(t) for t in self.waiting],
+                "lapsed": [_sighting_json(t) for t in self.lapsed],
+                "looked": [[c, p.tolist()] for c, p in self.looked]}
 
     def restore(self, data: dict) -> None:
         self._session = data.get("session")
-        self.waiting = [Sighting(w["category"], np.asarray(w["position"], dtype=float), int(w["count"]),
-                                 float(w["last"]), float(w["first"]), w.get("beside"))
-                        for w in data.get("waiting", [])]
+        self.waiting = [_sighting(w) for w in data.get("waiting", [])]
+        self.lapsed = [_sighting(w) for w in data.get("lapsed", [])]  # absent in a resume point saved before
+        self.looked = [(str(c), np.asarray(p, dtype=float)) for c, p in data.get("looked", [])]
 
     def claims(self, o: Observation, node_id: int, node_distance: float, gate: float, stamp: float) -> bool:
         """Whether ``o`` belongs to a waiting sighting begun beside node ``node_id`` rather
@@ -93,6 +121,9 @@ class TentativeSightings:
         self.beside_of = [None] * len(observations)
         if need <= 1:
             return [True] * len(observations)
+        for t in self.waiting:
+            if stamp - t.last > self.params.tentative_ttl:
+                self._lapse(t)
         self.waiting = [t for t in self.waiting if stamp - t.last <= self.params.tentative_ttl]
         pairs = sorted((float(np.linalg.norm((t.position - o.position) * self.scale)), k, j)
                        for j, o in enumerate(observations) for k, t in enumerate(self.waiting)
@@ -120,3 +151,13 @@ class TentativeSightings:
         self.waiting.extend(Sighting(o.category, o.position.copy(), 1, stamp, stamp, beside[j] if beside else None)
                             for j, o in enumerate(observations) if j not in used)
         return out
+
+
+def _sighting_json(t: Sighting) -> dict:
+    return {"category": t.category, "position": t.position.tolist(), "count": t.count, "last": t.last,
+            "first": t.first, "beside": t.beside}
+
+
+def _sighting(w: dict) -> Sighting:
+    return Sighting(w["category"], np.asarray(w["position"], dtype=float), int(w["count"]), float(w["last"]),
+                    float(w["first"]), w.get("beside"))

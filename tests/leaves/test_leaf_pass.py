@@ -174,6 +174,28 @@ def test_plan_refresh_stops_look_at_a_node_the_pass_left_unresolved_past_no_othe
     assert abs(math.atan2(5.0 - 8.0, 1.0 - 3.0) - stop.yaw) < math.radians(25.0)
 
 
+def test_plan_refresh_stops_look_again_where_the_pass_caught_an_object_in_one_frame_only(ctx, robot):
+    """A trash bin the camera caught in one frame while the robot turned was never confirmed
+    (a new object needs two frames) and no node stands there. The leaf plans a stop where the
+    robot has been, facing the bin; with ``unconfirmed: false`` it plans none."""
+    for unconfirmed, stops in ((True, 1), (False, 0)):
+        state = start_pass(ctx, (3.0, 8.0), (6.0, 5.0))
+        for _ in range(2):
+            state.mark(state.next(), VISITED)
+        ctx.session = 2
+        ctx.graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2, tentative_ttl=10.0))
+        ctx.graph.associate([Observation("trash bin", np.array([1.0, 5.0, 0.3]), 0.9)], [], 2, ctx.now())
+        robot.advance(30.0)
+        ctx.graph.associate([], [], 2, ctx.now())  # its ttl ran out unconfirmed
+        params = RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=(), unconfirmed=unconfirmed)
+        leaf = PlanRefreshStops("Refresh", params, ctx)
+        assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == stops
+        if stops:
+            assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 unconfirmed sightings"
+            stop = state.waypoint(len(state.states) - 1)
+            assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
+
+
 def test_plan_refresh_stops_with_nothing_stale_adds_an_empty_phase(ctx, robot):
     state = start_pass(ctx, (2, 5))
     state.mark(state.next(), VISITED)
@@ -201,6 +223,16 @@ def test_look_around_turns_to_an_unconfirmed_node_dwells_then_succeeds(ctx, robo
     assert tick(leaf) == Status.RUNNING
     robot.advance(0.1)
     assert tick(leaf) == Status.SUCCESS and len(robot.goals) == 1
+
+
+def test_look_around_turns_to_an_object_seen_once_on_the_way_and_marks_the_place_looked_at(ctx, robot):
+    ctx.session = 2
+    ctx.graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
+    ctx.graph.associate([Observation("trash bin", np.array([5.0, 8.0, 0.3]), 0.9)], [], 2, ctx.now())
+    leaf = LookAround("Look", LookAroundParams(dwell=1.5), ctx)
+    assert tick(leaf) == Status.RUNNING
+    assert robot.goals == [Pose2D(5.0, 5.0, math.pi / 2)]  # on the spot, towards the bin at (5, 8)
+    assert ctx.graph.unconfirmed_sightings() == []  # one look: no other waypoint turns to it
 
 
 def test_look_around_skips_a_turn_that_failed(ctx, robot):
