@@ -340,32 +340,6 @@ def test_a_resumed_pass_still_knows_which_node_a_waiting_sighting_began_beside()
     assert [t.beside for t in resumed.policy.tentative.waiting] == [None]
 
 
-def test_two_chairs_first_seen_together_and_confirmed_in_one_frame_are_two_nodes():
-    """Environment-A-size floor, seed 9595, pass 1: two chairs 0.65 m apart along a table's
-    side (delta_c 0.7 m) are first seen together, both new, and the next frame shows both
-    again. Both sightings are confirmed in that frame; the second must not be dropped as a
-    second view of the first chair's node just added: the frame names them apart (their
-    boxes do not touch). Dropped, its later views alone dragged the first chair's node over
-    to it, and the second chair was never mapped."""
-    g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
-    assert g.associate([cut(-0.2, 0.2), cut(0.45, 0.85)], [], 1, 0.0) == []
-    events = g.associate([cut(-0.2, 0.2), cut(0.45, 0.85)], [], 1, 0.5)
-    assert [e.kind for e in events] == ["added", "added"]
-    assert sorted(round(float(v.position[0]), 2) for v in g.nodes.values()) == [0.0, 0.65]
-
-
-def test_two_chairs_whose_bled_boxes_touch_are_two_nodes_a_duplicate_box_is_one():
-    """Masks bleed: the two chairs' boxes of one frame may touch (seed 9595: 0.8 m long
-    boxes of 0.5 m chairs, overlapping by 0.03 m) and still be two chairs. Two boxes that
-    share most of the smaller one (``footprint_overlap``) are one object seen twice (a
-    detector's duplicate box), and make one node."""
-    for x0, x1, nodes in ((0.22, 0.75, 2), (-0.15, 0.3, 1)):
-        g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
-        for t in (0.0, 0.5):
-            g.associate([boxed("chair", -0.25, -0.25, 0.25, 0.25), boxed("chair", x0, -0.25, x1, 0.25)], [], 1, t)
-        assert len(g.nodes) == nodes, (x0, x1)
-
-
 def test_a_first_sighting_left_unconfirmed_waits_for_a_look_one_confirmed_or_at_a_node_does_not():
     """A bin caught in one frame while the robot turned is not forgotten with its ttl: the pass
     keeps it for a second look. A sighting a later frame confirmed is a node, and one at a node

@@ -84,15 +84,10 @@ class NodeExtents:
         names an object once per frame, so two views of one category whose floor boxes do
         not touch are two objects: chairs 0.8 m apart at a table, both seen cut off by it
         (delta_c 0.7 m). Absorbed into its neighbour's node, the second chair was never
-        mapped (issue 17: chair-108 of a static Environment-A-size floor, seed 5353). Boxes
-        that touch are still two objects when they share less than ``footprint_overlap`` of
-        the smaller one: masks bleed, and two such chairs' boxes, each 0.8 m long, overlapped
-        by 0.03 m (Environment-A-size floor, seed 9595, pass 1: one node for both chairs of
-        a table's side, the second never mapped)."""
+        mapped (issue 17: chair-108 of a static Environment-A-size floor, seed 5353)."""
         if not self.boxes or not self.params.separate_neighbours or o.box is None:
             return False
-        return all(t.box is not None and not overlapping(t.box[None], o.box, self.params.footprint_overlap)[0]
-                   for t in takers)
+        return all(t.box is not None and box_gap(t.box, o.box) > 0.0 for t in takers)
 
     def apart(self, v: Node, w: Node, v_footprint: np.ndarray | None) -> bool:
         """With ``separate_neighbours``: whether ``v`` and ``w`` are plainly two objects: both

@@ -136,19 +136,17 @@ class RobustPolicy:
                 beside.append(next((int(v) for v in near[j][0] if int(v) in taker), None))
         confirmed = self.tentative.confirm_frame([obs[j] for j in fresh], [self.gate(obs[j]) for j in fresh], stamp,
                                                  beside)
-        placed: dict[int, Observation] = {}  # nodes added or moved in this frame: the view that placed each
-        for k, o in ((k, obs[j]) for k, j in enumerate(fresh)):
-            apart = {v for v, view in placed.items() if self.extents.beside(o, [view])}
-            same = [graph.nodes[v] for v in placed.keys() - apart]  # a view beside one is another object
-            if not confirmed[k] or near_any(o, same, self.gate(o), graph.index.scale):
+        placed: list[Node] = []  # nodes added or moved in this frame
+        for k, j in enumerate(fresh):
+            o = obs[j]
+            if not confirmed[k] or near_any(o, placed, self.gate(o), graph.index.scale):
                 continue
             moved = self._move_candidate(graph, o)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
-            placed[(v := graph.nodes[events[-1].node_id]).id] = o
+            placed.append(graph.nodes[events[-1].node_id])
             if not moved:
-                self.extents.grow(graph, v, o, self.gate(o))
-                for w in (*apart, self.tentative.beside_of[k]):  # its first frame showed both
-                    self.co_observed.add(v.id, w)
+                self.extents.grow(graph, placed[-1], o, self.gate(o))
+                self.co_observed.add(placed[-1].id, self.tentative.beside_of[k])  # its first frame showed both
         hidden = set(in_view or ()) - set(exp)
         events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
                                                     before))
