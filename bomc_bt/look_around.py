@@ -112,4 +112,3 @@ def pending_in_front(graph, pose: Pose2D, grid: OccupancyGrid, radius: float, fo
         if sees_node(grid, clear, (pose.x, pose.y), (node.position[0], node.position[1])):
             return True
     return False
-

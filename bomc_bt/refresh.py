@@ -29,8 +29,9 @@ So do the first sightings the pass never confirmed
 (:meth:`~bomc_bt.graph.ObjectGraph.unconfirmed_sightings`): a new object must be seen in two
 frames to be added, and one the camera caught once while turning is lost until the next pass.
 On a generated Environment-A-size floor (seed 9191) five of pass 1's six never-mapped
-objects (a chair, a table, three trash bins) had been detected exactly once, from 2.4-4.1 m. A stop
-that faces the place either sees it again (a node) or not (a false positive, dropped).
+objects (a chair, a table, three trash bins) had been detected exactly once, from 2.4-4.1
+m. A stop that faces the place either sees it again (a node) or not (a false positive,
+dropped). Look Around has turned to most of them already; what is left comes here.
 
 With ``association.miss_spacing``, a node whose run of misses would remove it, all seen
 from one place (a robot turning at a doorway), waits for a look from a second place

@@ -9,7 +9,8 @@ observation that confirms it becomes the node, at the mean of the sightings.
 A sighting whose time runs out unconfirmed is kept as *lapsed* for the rest of the pass: an
 object the camera caught once while turning (a bin in a corner, a chair behind a table
 seen from a doorway 3.5 m away) is as likely as a false positive, and only a second look
-tells which. Refresh Stale plans that look (:mod:`bomc_bt.refresh`).
+tells which. Look Around turns to it once (:mod:`bomc_bt.look_around`), and Refresh Stale
+plans a stop for what is left at the pass's end (:mod:`bomc_bt.refresh`).
 """
 
 from __future__ import annotations
@@ -59,9 +60,8 @@ class TentativeSightings:
         """The sightings of this session not (yet) confirmed, lapsed ones then those waiting,
         but those at a place a head turn has faced already: one look a place, or a false
         positive would turn the head at every waypoint near it."""
-        return [t for t in self.lapsed + self.waiting if not any(
-            c == t.category and float(np.linalg.norm((p - t.position) * self.scale)) <= self.params.distance(c)
-            for c, p in self.looked)]
+        return [t for t in self.lapsed + self.waiting
+                if not any(self._same_place(t.category, t.position, c, p) for c, p in self.looked)]
 
     def mark_looked(self, sightings: Sequence[Sighting]) -> None:
         """A head turn faces ``sightings`` now (:mod:`bomc_bt.look_around`)."""
@@ -70,11 +70,14 @@ class TentativeSightings:
     def _lapse(self, sighting: Sighting) -> None:
         """Keep ``sighting`` as lapsed, unless one lapsed already lies within its category's
         association distance (one place needs one look)."""
-        gate = self.params.distance(sighting.category)
-        if not any(t.category == sighting.category
-                   and float(np.linalg.norm((t.position - sighting.position) * self.scale)) <= gate
+        if not any(self._same_place(sighting.category, sighting.position, t.category, t.position)
                    for t in self.lapsed):
             self.lapsed.append(sighting)
+
+    def _same_place(self, category: str, position: np.ndarray, other: str, at: np.ndarray) -> bool:
+        """Same category, within its association distance (scaled as the graph's index)."""
+        gap = float(np.linalg.norm((position - at) * self.scale))
+        return category == other and gap <= self.params.distance(category)
 
     def to_json(self) -> dict:
         """The sightings waiting, JSON-able (a resumed pass picks them up again)."""
