@@ -141,3 +141,20 @@ def test_two_tables_end_to_end_each_seen_at_its_far_end_stay_two():
     _ends(graph, t, (-1.2, -0.65), (0.65, 1.2))  # two 1.2 m tables meeting at x = 0: 2.4 m in all
     graph.pair_relocations(1, 99.0)
     assert len(graph.nodes) == 6
+
+
+def test_ends_join_where_a_table_was_seen_whole_only_across_its_width():
+    """A 36 x 28 m office (seed 4411): the only tables seen whole were seen end-on, 0.8 m
+    across (no longer than a chair's mask with its bleed), but most table footprints reach
+    1.0 m: tables are big there, and a table's two ends are one table."""
+    graph = ObjectGraph(AssociationParams())
+    frames = []
+    for y in (10.0, 14.0, 18.0):
+        frames += [[view("table", 9.4, 10.4, truncated=True, y0=y - 0.4, y1=y + 0.4)]] * 3
+    t = _see(graph, frames + [[view("table", 20.0, 20.1, y0=-0.4, y1=0.4)]] * 3)
+    _ends(graph, t, (-0.8, -0.3), (0.3, 0.8))
+    assert len(graph.nodes) == 6
+    graph.pair_relocations(1, 99.0)
+    assert len(graph.nodes) == 5
+    middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
+    assert abs(middle.position[0]) < 0.05 and np.allclose(middle.footprint[[0, 2]], [-0.8, 0.8])

@@ -344,8 +344,7 @@ class RobustPolicy:
         if not self.extents.boxes or not self.params.separate_neighbours:
             return []
         seen, events = [v for v in graph.nodes.values() if v.last_session == session], []
-        reference = reference_lengths(seen, self.extents.longest_whole(graph),
-                                      lambda c: self.params.distance(c) + BIG_MARGIN)
+        reference = reference_lengths(seen, self.extents.longest_whole(graph), self.params.distance, BIG_MARGIN)
         big = {c for c, length in reference.items() if length > self.params.distance(c) + BIG_MARGIN}
         touch = self.params.footprint_touch
         for a, b in part_pairs(seen, reference, BIG_MARGIN, self.co_observed.seen_apart, big, touch):
