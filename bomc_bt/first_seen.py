@@ -85,6 +85,12 @@ class SeenBefore:
         """Whether no earlier pass saw the place at ``position`` (x, y[, z])."""
         return not bool(self.saw(np.asarray(position, dtype=float)[:2])[0])
 
+    def sighted_here(self, category: str, position: np.ndarray) -> bool:
+        """Whether the previous pass detected an object of ``category`` within the sighting
+        radius of ``position`` (x, y[, z])."""
+        mask = self.sighted.get(category)
+        return mask is not None and bool(self.saw(np.asarray(position, dtype=float)[:2], mask)[0])
+
     def mark(self, events: list[Event]) -> int:
         """Mark as first seen the ``added`` events at places no earlier pass saw, and those
         where the previous pass detected an object of their category; how many."""

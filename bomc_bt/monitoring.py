@@ -351,6 +351,7 @@ seen before it is written. With a store, every frame
         self.sightings = Sightings(grid)
         if self.seen_before is not None:  # a place new to the map is no moved object's new place
             self.graph.never_looked = self.seen_before.never_looked
+            self.graph.sighted_before = self.seen_before.sighted_here
         if self.store is not None:  # two objects an earlier pass saw side by side stay two
             self.graph.keep_apart(self.session, earlier_co_observed(self.store, self.session))
 

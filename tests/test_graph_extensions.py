@@ -273,6 +273,44 @@ def test_a_chair_first_seen_where_no_pass_looked_is_no_new_place_of_a_removed_ne
     assert kinds[-1] == "moved" and nodes == {0}
 
 
+def test_a_chair_the_previous_pass_detected_is_no_new_place_of_a_removed_neighbour():
+    """Pass 1 detected a chair 1.3 m from a mapped one once and never confirmed it (no node).
+    In pass 2 the mapped chair is gone and the other is confirmed: it stood there all along,
+    so the old node is removed, not moved onto it, in either order (traced on an
+    Environment-A-size floor: a removed chair reported moved onto its missed neighbour).
+    Where the previous pass detected nothing but the old object itself (a long table's far
+    end seen on its own), it is a move."""
+    def run(sighted, arrival_first: bool, category: str = "chair", reach: float = 0.25) -> tuple[list[str], set[int]]:
+        old = node(0, category, 0.0, 0.0, seen=20)
+        old.footprint = np.array([-reach, -0.25, reach, 0.25])
+        g = ObjectGraph(AssociationParams(confirm_misses=1, confirm_detections=1), [old])
+        g.never_looked = lambda p: False
+        g.sighted_before = sighted
+        kinds = []
+        if arrival_first:
+            kinds += [e.kind for e in g.associate([obs(category, 1.3, 0.0)], [], 2, 0.0)]
+        for k in range(1, 30):
+            kinds += [e.kind for e in g.associate([], [0], 2, float(k))]
+            if {"moved", "removed"} & set(kinds):
+                break
+        if not arrival_first:
+            kinds += [e.kind for e in g.associate([obs(category, 1.3, 0.0)], [], 2, 40.0)]
+        return kinds, set(g.nodes)
+
+    neighbour = lambda c, p: c == "chair" and abs(p[0] - 1.3) < 0.35  # noqa: E731 - pass 1 saw one there
+    itself = lambda c, p: c == "chair" and abs(p[0]) < 0.35  # noqa: E731 - only the old chair
+    for arrival_first in (True, False):
+        kinds, nodes = run(neighbour, arrival_first)
+        assert "moved" not in kinds and "removed" in kinds and 0 not in nodes and len(nodes) == 1
+        kinds, nodes = run(itself, arrival_first)
+        assert "moved" in kinds and nodes == {0}
+        kinds, nodes = run(lambda c, p: c == "table", arrival_first)  # a table there says nothing
+        assert "moved" in kinds and nodes == {0}
+        end = lambda c, p: c == "table" and abs(p[0] - 1.3) < 0.35  # noqa: E731
+        kinds, nodes = run(end, arrival_first, "table", reach=1.1)  # the old table's own far end
+        assert "moved" in kinds and nodes == {0}
+
+
 def test_two_chairs_a_frame_sees_side_by_side_confirm_two_sightings_not_one_between_them():
     # chairs 0.8 m apart at a table (delta_c 0.7 m). The first frame sees chair A alone; the
     # next sees both, chair B listed first and within the gate of A's sighting. B must not

@@ -12,11 +12,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.change_evaluation import reported_changes, score_changes, true_changes
 from bomc_bt.errors import BomcError
 from bomc_bt.first_seen import FIRST_SEEN, SIGHTED_IN, SeenBefore, load_seen_before
-from bomc_bt.graph import Event
+from bomc_bt.graph import AssociationParams, Event, ObjectGraph
 from bomc_bt.grid import OccupancyGrid, inflate_mask
+from bomc_bt.monitoring import Perception
 from bomc_bt.pass_resume import coverage_key, pack_mask, sightings_key
 from bomc_bt.sightings import Sightings
 from bomc_bt.store import SiteStore
@@ -60,6 +62,11 @@ def test_a_new_node_where_the_previous_pass_detected_its_category_is_first_seen(
     assert seen.mark(events) == 1
     assert events[0].detail == {FIRST_SEEN: True, SIGHTED_IN: 1}  # within the radius: the chair was there
     assert events[1].detail is None and events[2].detail is None  # 1 m off; another category
+    # the same question, asked by the robust policy before it takes a node for a removed one moved
+    graph = ObjectGraph(AssociationParams())
+    Perception(None, None, [], ProjectionParams(), graph, None, 2, grid, seen_before=seen)
+    assert graph.sighted_before("chair", np.array([2.2, 5.0, 0.4]))
+    assert not graph.sighted_before("chair", np.array([3.0, 5.0])) and not graph.sighted_before("table", [2.0, 5.0])
 
 
 def test_the_evaluation_no_longer_calls_a_chair_the_map_had_merged_a_phantom_addition():

@@ -57,3 +57,14 @@ def near_any(o: Observation, nodes: Sequence[Node], gate: float, scale: np.ndarr
 def never_looked(graph: ObjectGraph, at: Node | Observation) -> bool:
     """Whether no earlier pass looked where ``at`` stands (``ObjectGraph.never_looked``)."""
     return graph.never_looked is not None and graph.never_looked(at.position)
+
+
+def sighted_before(graph: ObjectGraph, at: Node | Observation, other: Node, radius: float) -> bool:
+    """Whether the previous pass detected an object of ``at``'s category where ``at`` stands
+    (``ObjectGraph.sighted_before``) that was not ``other``: a place beyond ``radius`` (m) of
+    ``other``'s footprint (its position where it has none), where none of its views fell."""
+    if graph.sighted_before is None or not graph.sighted_before(at.category, at.position):
+        return False
+    x, y = float(at.position[0]), float(at.position[1])
+    box = other.footprint if other.footprint is not None else np.repeat(other.position[:2], 2)
+    return float(np.hypot(max(0.0, box[0] - x, x - box[2]), max(0.0, box[1] - y, y - box[3]))) > radius

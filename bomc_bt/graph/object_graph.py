@@ -59,6 +59,10 @@ class ObjectGraph:
         # there beyond a node's gate was most likely always there, so the robust policy takes
         # it for no removed object's new place. None: nothing known.
         self.never_looked: Callable[[np.ndarray], bool] | None = None
+        # (category, position) -> whether the previous pass detected an object of that category
+        # there (bomc_bt.sightings): an object found there had stood there, missed, and is no
+        # removed object's new place either. None: nothing known.
+        self.sighted_before: Callable[[str, np.ndarray], bool] | None = None
         max_id = -1
         for node in nodes:
             max_id = max(max_id, node.id)

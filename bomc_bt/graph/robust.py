@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bomc_bt.graph.association import near_any, never_looked
+from bomc_bt.graph.association import near_any, never_looked, sighted_before
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.confusions import confused
 from bomc_bt.graph.evidence import misses_needed
@@ -281,12 +281,14 @@ class RobustPolicy:
         """A node of ``v``'s category new in this session, within ``move_radius`` of the
         older ``v`` whose absence is now confirmed: most likely ``v``'s object, moved, seen
         at its new place before its old place was checked (nearest, then lowest id). Beyond
-        ``v``'s own gate, not a node at a place no earlier pass looked: likely always there."""
+        ``v``'s own gate, not a node at a place no earlier pass looked, nor one where the
+        previous pass detected another object of its category: likely always there."""
         if v.first_session >= session:
             return None
-        gate = self.params.distance(v.category)
+        gate, radius = self.params.distance(v.category), self.params.sighting_radius
         near = [(d, n.id, n) for n, d in graph.within(v.category, v.position, self.params.move_radius)
-                if n.id != v.id and n.first_session == session and (d <= gate or not never_looked(graph, n))]
+                if n.id != v.id and n.first_session == session
+                and (d <= gate or not (never_looked(graph, n) or sighted_before(graph, n, v, radius)))]
         return min(near, key=lambda t: t[:2])[2] if near else None
 
     def _moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
@@ -366,17 +368,17 @@ class RobustPolicy:
 
     def _move_candidate(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """Nearest same-category node removed this session, within move_radius (beyond ``o``'s
-        gate, none where no earlier pass looked). A node with only some misses is no
-        candidate: one missed frame let a neighbouring chair, seen for the first time, take
-        its id. Its absence confirmed, :meth:`_arrival` still makes it a move."""
+        gate, none where no earlier pass looked or the previous pass detected another). A
+        node with only some misses is no candidate: one missed frame let a neighbouring chair,
+        seen for the first time, take its id. Its absence confirmed, :meth:`_arrival` still makes it a move."""
         fresh = never_looked(graph, o)
         best: tuple[float, int, Node] | None = None
         for v in graph.removed_this_session():
             if v.category != o.category:
                 continue
             d = float(np.linalg.norm((v.position - o.position) * graph.index.scale))
-            if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]) \
-                    and not (fresh and d > self.gate(o)):
+            if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]) and not (
+                    d > self.gate(o) and (fresh or sighted_before(graph, o, v, self.params.sighting_radius))):
                 best = (d, v.id, v)
         return None if best is None else best[2]
 
