@@ -309,8 +309,8 @@ def _view(args) -> int:
     if not args.no_browser:
         webbrowser.open(server.url)
     try:
-        while True:
-            time.sleep(3600)
+        while True:  # short naps: a Ctrl-C the kernel hands to a server thread ends the wait too
+            time.sleep(0.5)
     except KeyboardInterrupt:
         return 0
     finally:

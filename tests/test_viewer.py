@@ -12,6 +12,7 @@ from __future__ import annotations
 import http.client
 import json
 import math
+import signal
 import threading
 import time
 from dataclasses import dataclass, field
@@ -587,3 +588,39 @@ def test_hook_follows_a_simulated_build(shared, tmp_path):
     assert sections["scene"]["robot"] is not None and len(sections["scene"]["path"]) > 4
     assert sections["map"]["number"] >= 2  # the map grew during the build
     assert hooks[0].samples > 10
+
+
+def test_bomc_view_stops_on_a_ctrl_c_the_kernel_hands_to_its_server_thread(tmp_path, monkeypatch, capsys):
+    """Ctrl-C is a signal to the process, and the kernel may deliver it to any of its threads.
+    `bomc view` waited in one hour-long sleep that only a signal to the main thread cut short,
+    so a Ctrl-C that reached the HTTP server's thread left it running (a test saw it not stop
+    within 30 s of SIGINT). Here the signal goes to the server thread on purpose."""
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signals run their handlers in the main thread only")
+    from argparse import Namespace
+
+    import bomc_bt.viewer
+    from bomc_bt import cli
+
+    servers: list[Server] = []
+    real = bomc_bt.viewer.serve_site
+    monkeypatch.setattr(bomc_bt.viewer, "serve_site", lambda *a, **k: servers.append(real(*a, **k)) or servers[-1])
+    returned, main = threading.Event(), threading.get_ident()
+    rescued = []
+
+    def interrupt_the_server_thread() -> None:
+        while not servers or servers[0]._thread is None:
+            time.sleep(0.01)
+        signal.pthread_kill(servers[0]._thread.ident, signal.SIGINT)
+        if not returned.wait(5.0):  # still waiting: end it from the main thread, and fail
+            rescued.append(True)
+            signal.pthread_kill(main, signal.SIGINT)
+
+    helper = threading.Thread(target=interrupt_the_server_thread, daemon=True)
+    helper.start()
+    started = time.monotonic()
+    code = cli._view(Namespace(site=make_site(tmp_path), port=0, no_browser=True))
+    returned.set()
+    helper.join(timeout=10)
+    assert code == 0 and not rescued, f"bomc view kept running {time.monotonic() - started:.1f} s after Ctrl-C"
+    assert "Ctrl-C to stop" in capsys.readouterr().out
