@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 import pytest
+from built_sites import copy_site
 from hypothesis import settings
 from shared_data import SHARED, require_shared
 
@@ -38,7 +39,23 @@ def shared() -> Path:
 
 
 @pytest.fixture(scope="session")
-def office_realistic(shared, tmp_path_factory):
+def office_s_built(shared, tmp_path_factory):
+    """office-s built once (seed 0, default configuration) and its build result.
+
+    A build does not read the detector settings, so the mission tests with either detector
+    and the fault test each start from a copy of this site (:func:`built_sites.copy_site`) instead of
+    exploring office-s again (a build of it is about 15 s of CPU).
+    """
+    from bomc_bt import run
+
+    world = shared / "worlds" / "office-s.yaml"
+    site = tmp_path_factory.mktemp("office-s-built") / "site"
+    result = run.run_build(world, site, seed=0, config=run.build_config())
+    return {"world": world, "site": site, "result": result}
+
+
+@pytest.fixture(scope="session")
+def office_realistic(office_s_built, tmp_path_factory):
     """office-s built once and monitored in sessions 1-3 with the realistic detector.
 
     Shared by the mission tests (F1) and the robustness tests (fault-free baseline,
@@ -47,12 +64,20 @@ def office_realistic(shared, tmp_path_factory):
     from bomc_bt import run
     from bomc_bt.evaluate_site import evaluate_session
 
-    world = shared / "worlds" / "office-s.yaml"
-    site = tmp_path_factory.mktemp("office-realistic")
+    world = office_s_built["world"]
+    site = copy_site(office_s_built, tmp_path_factory.mktemp("office-realistic") / "site")
     config = run.build_config()
-    run.run_build(world, site, seed=0, config=config)
     passes = {}
     for n in (1, 2, 3):
         result = run.run_monitor(world, site, n, seed=n, config=config)
         passes[n] = {"result": result, "f1": evaluate_session(world, site, n, config).overall.f1}
     return {"world": world, "site": site, "config": config, "passes": passes}
+
+
+def pytest_collection_modifyitems(items):
+    """With pytest-xdist (``scripts/test.sh`` runs ``--dist loadgroup``) each test file runs
+    on one worker, so its module fixtures are built once; the tests that run passes on
+    ``office_s_built`` carry their own group, ``office-s``, across files."""
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))

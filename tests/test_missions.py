@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from built_sites import copy_site
 
 from bomc_bt import run
 from bomc_bt.evaluate_site import evaluate_session
@@ -36,11 +37,21 @@ def config_with(tmp_path: Path, text: str):
     return run.build_config([str(path)])
 
 
-@pytest.mark.parametrize("world", ["shared:lab-b", "shared:office-s", "small_house", "bookstore"])
-def test_build_covers_the_reachable_free_area(world, shared, tmp_path):
+# the tests that run passes on the session's one build of office-s share one test worker
+# (pytest-xdist's loadgroup), so that build and the realistic passes run once
+OFFICE_S = pytest.mark.xdist_group("office-s")
+
+
+@pytest.mark.parametrize("world", ["shared:lab-b", pytest.param("shared:office-s", marks=OFFICE_S),
+                                   "small_house", "bookstore"])
+def test_build_covers_the_reachable_free_area(world, shared, tmp_path, request):
     shared_world = world.startswith("shared:")
     path = shared / "worlds" / f"{world[7:]}.yaml" if shared_world else TESTS / "worlds" / f"{world}.yaml"
-    result = run.run_build(path, tmp_path, seed=0)
+    if world == "shared:office-s":  # the session's one build of office-s (seed 0, default configuration)
+        built = request.getfixturevalue("office_s_built")
+        result, tmp_path = built["result"], built["site"]
+    else:
+        result = run.run_build(path, tmp_path, seed=0)
     assert result.succeeded, result.reason
     assert result.summary["termination"] == "done"
     assert coverage_of(path, tmp_path) >= 0.95
@@ -69,8 +80,9 @@ def test_build_stops_at_the_time_limit_and_still_saves_the_map(shared, tmp_path)
     assert load_map(tmp_path / "map.yaml").free_area() > 20.0
 
 
-def _monitor_sessions(world: Path, site: Path, config, sessions=(1, 2, 3)) -> dict[int, float]:
-    run.run_build(world, site, seed=0, config=config)
+def _monitor_sessions(world: Path, site: Path, config, sessions=(1, 2, 3), built: bool = False) -> dict[int, float]:
+    if not built:
+        run.run_build(world, site, seed=0, config=config)
     scores = {}
     for n in sessions:
         result = run.run_monitor(world, site, n, seed=n, config=config)
@@ -90,7 +102,8 @@ def test_perfect_detector_maps_every_session_of_lab_b_exactly(shared, tmp_path):
         assert f1 == 1.0
 
 
-def test_perfect_detector_on_office_s(shared, tmp_path, capsys):
+@OFFICE_S
+def test_perfect_detector_on_office_s(office_s_built, tmp_path, capsys):
     """Every session scores 1.0 in every class. The hard cases, each once a miss:
     - chair-4 stands in a room whose door a chair half blocks; a gap viewpoint looks in
       from the corridor.
@@ -100,8 +113,8 @@ def test_perfect_detector_on_office_s(shared, tmp_path, capsys):
     Measured 1.0 / 1.0 / 1.0 (seeded); before node footprints, gap viewpoints and the
     refresh tour 0.978 / 0.984 / 0.962."""
     config = config_with(tmp_path, "detector: {preset: perfect}\n")
-    world, site = shared / "worlds" / "office-s.yaml", tmp_path / "site"
-    scores = _monitor_sessions(world, site, config)
+    world, site = office_s_built["world"], copy_site(office_s_built, tmp_path / "site")
+    scores = _monitor_sessions(world, site, config, built=True)
     with capsys.disabled():
         print("\noffice-s perfect-detector F1 per session:", {n: round(f, 3) for n, f in scores.items()})
     for n in (1, 2, 3):
@@ -127,6 +140,7 @@ def test_realistic_detector_keeps_f1_above_0_9_on_lab_b(shared, tmp_path):
     assert all(f1 >= 0.9 for f1 in scores.values()), scores
 
 
+@OFFICE_S
 def test_realistic_detector_keeps_f1_above_0_9_on_office_s(office_realistic, capsys):
     scores = {n: p["f1"] for n, p in office_realistic["passes"].items()}
     with capsys.disabled():

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from built_sites import copy_site
 
 from bomc_bt import run
 from bomc_bt.evaluate_site import evaluate_session
@@ -112,6 +113,7 @@ def test_a_pass_that_cannot_localize_aborts_without_touching_the_graph(lab_site,
     assert result.context.perception.frames == 0  # never ran unlocalized
 
 
+@pytest.mark.xdist_group("office-s")  # with the other passes on office_s_built (tests/test_missions.py)
 def test_blocked_corridor_in_session_3_is_detoured_and_nothing_unseen_is_removed(office_realistic):
     result = office_realistic["passes"][3]["result"]
     assert result.succeeded
@@ -126,15 +128,15 @@ def test_blocked_corridor_in_session_3_is_detoured_and_nothing_unseen_is_removed
             assert seen[r, c], f"node {event.node_id} removed at {event.position} was never in view"
 
 
-def test_faults_cost_at_most_0_05_f1(office_realistic, tmp_path, capsys):
+@pytest.mark.xdist_group("office-s")  # with the other passes on office_s_built (tests/test_missions.py)
+def test_faults_cost_at_most_0_05_f1(office_realistic, office_s_built, tmp_path, capsys):
     faults = tmp_path / "faults.yaml"
     faults.write_text(
         "sim:\n  faults: {nav_failure_probability: 0.2, people: 3}\n"
         "detector:\n  dropouts: [[100.0, 130.0]]\n"
     )
     config = run.build_config([str(faults)])
-    world, site = office_realistic["world"], tmp_path / "site"
-    run.run_build(world, site, seed=0, config=run.build_config())
+    world, site = office_realistic["world"], copy_site(office_s_built, tmp_path / "site")
     rows = []
     for n in (1, 2, 3):
         result = run.run_monitor(world, site, n, seed=n, config=config)
