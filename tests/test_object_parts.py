@@ -105,14 +105,20 @@ def test_a_whole_chair_keeps_apart_from_a_sliver_of_its_neighbour():
     assert len(graph.nodes) == 3  # chairs are small: both must be parts to join
 
 
-def _a_small_floor_of_tables_among_chairs() -> list:
+def _a_small_floor_of_tables_among_chairs(across: float = 0.95) -> list:
     """Three 1.6 m tables, chairs at every side: each seen cut off over 1.0 m of its length;
-    and one seen whole only end-on, 0.95 m across. Five tables on a 36 x 28 m floor, none
-    ever seen at full length: the longest table anyone saw is 1.0 m."""
+    and one seen whole only end-on, ``across`` m across. Five tables on a 36 x 28 m floor,
+    none ever seen at full length: the longest table anyone saw is 1.0 m."""
     frames = []
     for y in (10.0, 14.0, 18.0):
         frames += [[view("table", 9.4, 10.4, truncated=True, y0=y - 0.4, y1=y + 0.4)]] * 3
-    return frames + [[view("table", 20.0, 20.1, y0=-0.475, y1=0.475)]] * 3
+    return frames + [[view("table", 20.0, 20.1, y0=-across / 2, y1=across / 2)]] * 3
+
+
+def _one_table_in_the_middle(graph: ObjectGraph) -> bool:
+    """Whether the node nearest the origin is a table from x = -0.8 to 0.8 centred there."""
+    middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
+    return abs(middle.position[0]) < 0.05 and np.allclose(middle.footprint[[0, 2]], [-0.8, 0.8])
 
 
 def _ends(graph: ObjectGraph, t: float, near: tuple[float, float], far: tuple[float, float]) -> None:
@@ -130,9 +136,7 @@ def test_ends_as_wide_as_the_table_join_on_a_floor_where_no_table_was_seen_at_fu
     graph.pair_relocations(1, 99.0)
     # each end's longest side (0.95 m, across) is no part of a 1.0 m table, but along the
     # pair's length it holds 0.5 m; the 1.6 m pair is the 1.0 m seen plus a chair's width hidden
-    assert len(graph.nodes) == 5
-    middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
-    assert abs(middle.position[0]) < 0.05 and np.allclose(middle.footprint[[0, 2]], [-0.8, 0.8])
+    assert len(graph.nodes) == 5 and _one_table_in_the_middle(graph)
 
 
 def test_two_tables_end_to_end_each_seen_at_its_far_end_stay_two():
@@ -148,13 +152,8 @@ def test_ends_join_where_a_table_was_seen_whole_only_across_its_width():
     across (no longer than a chair's mask with its bleed), but most table footprints reach
     1.0 m: tables are big there, and a table's two ends are one table."""
     graph = ObjectGraph(AssociationParams())
-    frames = []
-    for y in (10.0, 14.0, 18.0):
-        frames += [[view("table", 9.4, 10.4, truncated=True, y0=y - 0.4, y1=y + 0.4)]] * 3
-    t = _see(graph, frames + [[view("table", 20.0, 20.1, y0=-0.4, y1=0.4)]] * 3)
+    t = _see(graph, _a_small_floor_of_tables_among_chairs(across=0.8))
     _ends(graph, t, (-0.8, -0.3), (0.3, 0.8))
     assert len(graph.nodes) == 6
     graph.pair_relocations(1, 99.0)
-    assert len(graph.nodes) == 5
-    middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
-    assert abs(middle.position[0]) < 0.05 and np.allclose(middle.footprint[[0, 2]], [-0.8, 0.8])
+    assert len(graph.nodes) == 5 and _one_table_in_the_middle(graph)
