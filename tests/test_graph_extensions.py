@@ -311,6 +311,22 @@ def test_a_chair_the_previous_pass_detected_is_no_new_place_of_a_removed_neighbo
         assert "moved" in kinds and nodes == {0}
 
 
+def test_a_sighting_counts_against_a_removed_node_only_beyond_its_own_footprint_or_position():
+    from bomc_bt.graph.association import sighted_before
+
+    g = ObjectGraph(AssociationParams())
+    g.sighted_before = lambda c, p: True  # the previous pass detected a chair everywhere
+    bare = node(0, "chair", 2.0, 5.0)  # no footprint: its position stands for it
+    assert not sighted_before(g, obs("chair", 2.2, 5.1), bare, 0.35)  # its own view
+    assert sighted_before(g, obs("chair", 3.0, 5.0), bare, 0.35)
+    table = node(1, "table", 2.0, 5.0)
+    table.footprint = np.array([1.2, 4.6, 2.8, 5.4])
+    assert not sighted_before(g, obs("table", 3.1, 5.0), table, 0.35)  # 0.3 m past its far end
+    assert sighted_before(g, obs("table", 3.3, 5.0), table, 0.35)
+    g.sighted_before = None  # nothing known
+    assert not sighted_before(g, obs("chair", 3.0, 5.0), bare, 0.35)
+
+
 def test_two_chairs_a_frame_sees_side_by_side_confirm_two_sightings_not_one_between_them():
     # chairs 0.8 m apart at a table (delta_c 0.7 m). The first frame sees chair A alone; the
     # next sees both, chair B listed first and within the gate of A's sighting. B must not

@@ -49,17 +49,17 @@ def test_build_covers_the_reachable_free_area(world, shared, tmp_path, request):
     path = shared / "worlds" / f"{world[7:]}.yaml" if shared_world else TESTS / "worlds" / f"{world}.yaml"
     if world == "shared:office-s":  # the session's one build of office-s (seed 0, default configuration)
         built = request.getfixturevalue("office_s_built")
-        result, tmp_path = built["result"], built["site"]
+        result, site = built["result"], built["site"]
     else:
-        result = run.run_build(path, tmp_path, seed=0)
+        result, site = run.run_build(path, tmp_path, seed=0), tmp_path
     assert result.succeeded, result.reason
     assert result.summary["termination"] == "done"
-    assert coverage_of(path, tmp_path) >= 0.95
-    grid = load_map(tmp_path / "map.yaml")  # loads back in map_server format
+    assert coverage_of(path, site) >= 0.95
+    grid = load_map(site / "map.yaml")  # loads back in map_server format
     assert grid.free_area() > 50.0
-    rows = (tmp_path / "trajectory.csv").read_text().splitlines()
+    rows = (site / "trajectory.csv").read_text().splitlines()
     assert rows[0] == "t,x,y,yaw" and len(rows) > 20
-    summary = json.loads((tmp_path / "build.json").read_text())
+    summary = json.loads((site / "build.json").read_text())
     assert summary["explored_area_m2"] > 50.0 and summary["path_length_m"] > 5.0
 
 

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
+from bomc_bt.graph.footprints import box_gap
 from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.records import Event, Node, Observation
 
@@ -65,6 +66,6 @@ def sighted_before(graph: ObjectGraph, at: Node | Observation, other: Node, radi
     ``other``'s footprint (its position where it has none), where none of its views fell."""
     if graph.sighted_before is None or not graph.sighted_before(at.category, at.position):
         return False
-    x, y = float(at.position[0]), float(at.position[1])
-    box = other.footprint if other.footprint is not None else np.repeat(other.position[:2], 2)
-    return float(np.hypot(max(0.0, box[0] - x, x - box[2]), max(0.0, box[1] - y, y - box[3]))) > radius
+    point = np.tile(np.asarray(at.position[:2], dtype=float), 2)  # a box of no size: (x, y, x, y)
+    box = other.footprint if other.footprint is not None else np.tile(other.position[:2], 2)
+    return box_gap(box, point) > radius

@@ -370,7 +370,8 @@ class RobustPolicy:
         """Nearest same-category node removed this session, within move_radius (beyond ``o``'s
         gate, none where no earlier pass looked or the previous pass detected another). A
         node with only some misses is no candidate: one missed frame let a neighbouring chair,
-        seen for the first time, take its id. Its absence confirmed, :meth:`_arrival` still makes it a move."""
+        seen for the first time, take its id. Its absence confirmed, :meth:`_arrival` still
+        makes it a move."""
         fresh = never_looked(graph, o)
         best: tuple[float, int, Node] | None = None
         for v in graph.removed_this_session():
