@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 
 from bomc_bt.algorithm_params import ProjectionParams
@@ -83,6 +84,11 @@ def test_a_chair_seen_only_over_the_table_in_front_is_no_evidence_of_its_absence
     elsewhere = Detection("table", (0.0, 0.0, 2.0, 2.0), 0.9)
     assert miss_weights(both, [node], params, [covering])[0] > 0.5
     assert miss_weights(both, [node], params, [elsewhere]) == [0.0]
+    # A detection of another kind over its place is what hides it (the table in front, its
+    # mask spilling over the chair's back), not what stands there: the miss still weighs nothing.
+    in_front = Detection("table", (0.0, 0.0, float(w), float(h)), 0.9)
+    assert miss_weights(both, [node], params, [in_front]) == [0.0]
+    assert miss_weights(table_only, [node], params, [in_front])[0] > 0.5
 
 
 def test_a_detection_on_a_wall_or_an_object_gone_from_against_the_wall_can_still_be_missed():
@@ -103,17 +109,28 @@ def test_an_undetected_chair_behind_a_table_keeps_its_node_pass_after_pass_until
     table = WorldObject("t", "table", (-1.5, -1.5, 0.375), (0.8, 1.6, 0.75), yaw=0.0)
     params = ProjectionParams()
 
-    def changes_over_frames_without_a_detection(objects) -> list[tuple[str, int]]:
+    def changes_over_frames_without_a_chair_detection(objects, table_found: bool) -> list[tuple[str, int]]:
         node = Node(0, "chair", np.array([-0.9, -1.5, 0.82]), 0.9, 1, 1, observations=20,
                     footprint=np.array([-1.15, -1.75, -0.65, -1.25]))
         graph = ObjectGraph(AssociationParams(), [node])
         frame = render(objects, camera)
+        found = [table_detection(frame)] if table_found else []
         events = []
-        for k in range(30):  # 15 s of frames at 2 Hz, the detector finding nothing
+        for k in range(30):  # 15 s of frames at 2 Hz, the detector never finding the chair
             expected = expected_nodes(frame, list(graph.nodes.values()), params)
-            weights = miss_weights(frame, expected, params)
+            weights = miss_weights(frame, expected, params, found)
             events += graph.associate([], [n.id for n in expected], 2, 100.0 + 0.5 * k, miss_weights=weights)
         return [(e.kind, e.node_id) for e in events]
 
-    assert changes_over_frames_without_a_detection([table, chair("b", -0.9)]) == []
-    assert changes_over_frames_without_a_detection([table]) == [("removed", 0)]
+    for table_found in (False, True):  # the table found too, its mask spilling over the chair's back
+        assert changes_over_frames_without_a_chair_detection([table, chair("b", -0.9)], table_found) == []
+        assert changes_over_frames_without_a_chair_detection([table], table_found) == [("removed", 0)]
+
+
+def table_detection(frame) -> Detection:
+    """The table as a segmenter returns it, its mask spilling 10 pixels round it (over the chair's back)."""
+    ids = [i for i, c in frame.instance_categories.items() if c == "table"]
+    mask = cv2.dilate(np.isin(frame.instances, ids).astype(np.uint8), np.ones((21, 21), np.uint8)) > 0
+    rows, cols = np.nonzero(mask)
+    box = (float(cols.min()), float(rows.min()), float(cols.max()), float(rows.max()))
+    return Detection("table", box, 0.9, mask)

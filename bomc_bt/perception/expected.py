@@ -33,8 +33,10 @@ barely visible chair frame after frame, and its misses removed it while it stood
 (issue 17: 3 of 10 phantoms on two static Environment-A-size floors). The depth camera
 shows something at the node's place no higher than furniture, and nothing the detector
 found there, which is no evidence of absence. Two exceptions keep misses where they did
-their work before: a place one of the frame's detections covers is explained by that
-object (a second node on one table is a duplicate, removed by its misses as ever), and a
+their work before: a place one of the frame's detections of the node's category covers is
+explained by that object (a second node on one table is a duplicate, removed by its misses
+as ever; a detection of another kind there is what hides the node: the table in front,
+whose mask a segmenter spills over the chair's back above it), and a
 false detection on a wall stays removable, since the wall fills its place and also the
 view 0.5-0.8 m above it, where no chair, table or bin reaches (a camera tilted down may
 not show that high above a near node; then the miss counts, as before).
@@ -141,16 +143,20 @@ def place_held(frame: RGBDFrame, nodes: Sequence[Node], margin: float,
     """Per node: the frame shows something furniture-high and undetected where the node stands.
 
     Held: the depth at the node's centre is no more than ``margin`` beyond it, no detection
-    covers that pixel (a detected object there explains it: the node is a duplicate or a
-    neighbour's, and its miss counts as ever), and the view above it is not filled too (a
+    of the node's category covers that pixel (a detected object of its kind there explains
+    it: the node is a duplicate or a neighbour's, and its miss counts as ever; one of another
+    kind is what hides it, like the table in front of a chair), and the view above it is not filled too (a
     wall would fill both): the highest of ``_WALL_RISES`` above the centre that the image
     shows must be seen past. When none of them is in the image, nothing is held (the wall
     test cannot be made). A point without valid depth holds nothing.
     """
     centres = np.array([n.position for n in nodes], dtype=float).reshape(-1, 3)
     u, v, _, filled = _filled(frame, centres, margin)
+    categories = np.array([n.category for n in nodes], dtype=object)
     for d in detections:
-        filled[filled] &= ~_covers(d, u[filled], v[filled])
+        mine = filled & (categories == d.category)
+        mine[mine] = _covers(d, u[mine], v[mine])
+        filled &= ~mine
     judged = np.zeros(len(centres), dtype=bool)
     clear_above = np.zeros(len(centres), dtype=bool)
     for rise in _WALL_RISES:
