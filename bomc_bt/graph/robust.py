@@ -147,6 +147,7 @@ class RobustPolicy:
             if not moved:
                 self.extents.grow(graph, placed[-1], o, self.gate(o))
                 self.co_observed.add(placed[-1].id, self.tentative.beside_of[k])  # its first frame showed both
+        self.co_observed.note(placed, self.params.extent_gate * self.params.largest_distance())  # seen as two at once
         hidden = set(in_view or ()) - set(exp)
         events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
                                                     before))
