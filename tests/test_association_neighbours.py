@@ -255,3 +255,32 @@ def test_two_chairs_one_frame_matched_at_once_are_never_folded_into_one():
     resumed.restore_pass_state(graph.pass_state(), {})
     resumed.associate([bleeding], [0], 2, 1.0, in_view=[0, 1])
     assert sorted(resumed.nodes) == [0, 1]
+
+
+def test_a_node_first_caught_over_its_neighbour_takes_the_footprint_of_the_chair_it_then_sees_whole():
+    """Chair B's edge, caught cut off at the image border, starts a node whose footprint is
+    B's floor; whole views of chair A, 0.65 m from it, then take the node (its footprint held
+    no whole view, so nothing kept them apart) and its position follows them onto A. The
+    footprint stayed on B's floor: the next pass, starting from the saved node, took A's
+    views for another object (a node added on a mapped chair; Environment-A-size floor, seed
+    9911). The whole view's box replaces a footprint of cut-off views it lies beyond."""
+    first = ObjectGraph(AssociationParams())
+    t = 0.0
+    for _ in range(2):  # confirmed by two frames
+        first.associate([view("chair", 0.55, 0.95, truncated=True)], list(first.nodes), 1, t)
+        t += 1.0
+    for _ in range(8):  # chair A seen whole, 0.65 m from the node
+        first.associate([view("chair", -0.15, 0.35)], list(first.nodes), 1, t)
+        t += 1.0
+    (node,) = first.nodes.values()
+    assert node.position[0] < 0.35
+    assert node.footprint[0] <= -0.1 and node.footprint[2] <= 0.45, node.footprint
+
+    saved = Node(node.id, "chair", node.position.copy(), node.confidence, 1, 1, observations=node.observations,
+                 footprint=node.footprint.copy())
+    second = ObjectGraph(AssociationParams(), [saved])
+    events = []
+    for k in range(4):
+        events += second.associate([view("chair", -0.15, 0.35)], [saved.id], 2, 100.0 + k)
+    assert [e.kind for e in events if e.kind != "updated"] == []
+    assert list(second.nodes) == [saved.id]

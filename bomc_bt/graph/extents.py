@@ -214,7 +214,12 @@ class NodeExtents:
         first *boxed* view instead shrank tables to partial views and let a sliver become a
         duplicate again: office-s perfect session 3, 0.984 -> 0.977.) A union longer than the
         longest single view (plus ``BIG_MARGIN``) is two objects, and is not made, unless
-        ``extend``: a truncated view of a big node's hidden end (:meth:`touched_node`).
+        ``extend``: a truncated view of a big node's hidden end (:meth:`touched_node`). But
+        when the footprint holds only views cut off by an occluder or the image border and
+        this whole view lies beyond them, the footprint starts over from the view: the node's
+        position follows its views, and a footprint left at a neighbour's place made the next
+        pass take this object's views for another (a chair first caught at the image edge
+        over its neighbour, then seen whole: issue 17, Environment-A-size floor, seed 9911).
         """
         graph.widen_gate(v, gate)
         if self.boxes and o.box is not None:
@@ -230,6 +235,8 @@ class NodeExtents:
             if restart or extend or longest_side(grown) <= longest + BIG_MARGIN:
                 graph.set_footprint(v, grown)
                 self._mark(v.id, kept_whole or not o.truncated)
+            elif v.id in self._partial and not o.truncated:
+                self.restart(graph, v, o)  # cut-off views only, and a whole one beyond them: see below
 
     def touched_node(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """The big same-category node whose footprint a truncated view lies against, if any.
