@@ -134,3 +134,19 @@ def table_detection(frame) -> Detection:
     rows, cols = np.nonzero(mask)
     box = (float(cols.min()), float(rows.min()), float(cols.max()), float(rows.max()))
     return Detection("table", box, 0.9, mask)
+
+
+def test_a_node_whose_place_lies_just_behind_a_walls_face_is_hidden_not_missed():
+    """A door's node made from views of one end of its leaf stands at the jamb. Seen past
+    the jamb, the wall's face 0.15 m in front of the node's centre fills its place and the
+    view above it, as a wall fills the place of a false detection on it; but that detection's
+    centre lies on the face, and this one's behind it: the place is hidden, the miss weighs
+    nothing. A false detection on the face itself is still missed."""
+    camera = Pose2D(-1.0, -1.5, 0.0)  # facing the room's east wall (x = 2.5), 3.5 m ahead
+    frame = render([], camera)
+    behind = Node(6, "door", np.array([2.65, -1.5, 1.0]), 0.9, 1, 1)
+    on_face = Node(7, "door", np.array([2.5, -1.0, 1.0]), 0.9, 1, 1)
+    params = ProjectionParams()
+    assert expected_nodes(frame, [behind, on_face], params) == [behind, on_face]  # within visible()'s 0.3 m
+    weights = miss_weights(frame, [behind, on_face], params)
+    assert weights[0] == 0.0 and weights[1] > 0.5
