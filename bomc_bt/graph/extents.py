@@ -236,7 +236,7 @@ class NodeExtents:
                 graph.set_footprint(v, grown)
                 self._mark(v.id, kept_whole or not o.truncated)
             elif v.id in self._partial and not o.truncated:
-                self.restart(graph, v, o)  # cut-off views only, and a whole one beyond them: see below
+                self.restart(graph, v, o)  # cut-off views only, and a whole one beyond them (docstring)
 
     def touched_node(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """The big same-category node whose footprint a truncated view lies against, if any.
