@@ -302,9 +302,11 @@ class ProjectionParams:
     expect_edge_on_deg: float = 90.0
     # [m] robust: a miss counts only where the depth camera sees the node's place empty (more
     # than this beyond the node's centre), or a wall-high surface or one of the frame's
-    # detections there. Something undetected no higher than furniture standing where the node
-    # is (a chair seen only over the table in front, which any detector misses) is no evidence
-    # of its absence. 0: off, every miss counts
+    # detections of its category there (one of another kind is what hides it). Something
+    # undetected no higher than furniture standing where the node is (a chair seen only over
+    # the table in front, which any detector misses) is no evidence of its absence, nor is a
+    # wall's face more than this in front of the node's centre (the place lies behind it).
+    # 0: off, every miss counts
     absence_margin: float = 0.1
     # [choice] how an object's position is taken from its points: "mean" is the paper's (the
     # mean of the masked point cloud); "footprint" keeps the mean height but takes x, y from
