@@ -87,6 +87,26 @@ def test_unresolved_nodes_are_those_the_pass_neither_confirmed_nor_removed():
     assert [n.id for n in g.unresolved(2)] == [2] and 1 not in g.nodes
 
 
+def test_a_node_added_on_its_confirming_sightings_alone_is_unresolved_until_a_frame_matches_it_again():
+    """Two false detections at one place 4.5 s apart confirmed a trash bin on a wall, and the
+    pass never looked there again: the map reported it added (issue 17, 36 x 28 m office, seed
+    7717, pass 3). Such a node waits for a look like one the pass never saw; a third frame that
+    matches it settles it, and its misses at the look retract it in the same pass (no change)."""
+    from dataclasses import replace
+    g = ObjectGraph(replace(ROBUST, confirm_detections=2), [node(0, "chair", 5, 0)])
+    g.associate([obs("chair", 5, 0)], [0], 3, 0.0)
+    for t in (308.5, 313.0):
+        g.associate([obs("trash bin", 3.6, 6.5)], [], 3, t)
+    (bin_id,) = [v.id for v in g.nodes.values() if v.category == "trash bin"]
+    assert [n.id for n in g.unresolved(3)] == [bin_id]
+    assert [n.id for n in ObjectGraph(replace(ROBUST, retract_observations=0), g.nodes.values()).unresolved(3)] == []
+    looked = ObjectGraph(g.params, [replace(n, misses=0) for n in g.nodes.values()])
+    looked.associate([obs("trash bin", 3.6, 6.5)], [bin_id], 3, 320.0)
+    assert looked.unresolved(3) == []
+    events = [e for t in (400.0, 401.0, 402.0) for e in g.associate([], [bin_id], 3, t)]
+    assert kinds(events) == [("removed", bin_id)] and events[0].detail["retracted"]
+
+
 def test_robust_keeps_node_missed_fewer_than_confirm_times():
     g = ObjectGraph(ROBUST, [node(0, "chair", 0, 0), node(1, "chair", 5, 0)])
     assert g.associate([], [0], 1, 0.0) == []

@@ -107,15 +107,15 @@ class ObjectGraph:
         return sorted(self._pending)
 
     def unresolved(self, session: int) -> list[Node]:
-        """Present nodes that pass ``session`` has neither confirmed nor removed: not matched
-        in it, or missed since their last match by at least one near, clear view (a run of
-        misses weighing 1 or more, :mod:`.evidence`; misses from afar weigh less and are what
-        a detector does at that range). The map shows them on older evidence only, so a look
-        that sees their place clearly decides: the object is confirmed, or its misses run on
-        to a removal (an object taken away where the only views this pass had were past
-        another object)."""
-        return [v for v in self.nodes.values()
-                if v.state == PRESENT and (v.last_session != session or self.missed_up_close(v.id))]
+        """Present nodes pass ``session`` has neither confirmed nor removed: not matched in it,
+        missed since their last match by a near, clear view (a run of misses weighing 1 or more,
+        :mod:`.evidence`), or (robust) added in it and matched in at most ``retract_observations``
+        frames: two false detections at one place 4.5 s apart made such a node, never looked at
+        again in that pass (issue 17). A clear look decides: confirmed, or removed (retracted)."""
+        barely = self.params.retract_observations if isinstance(self.policy, RobustPolicy) else 0
+        return [v for v in self.nodes.values() if v.state == PRESENT and (
+            v.last_session != session or self.missed_up_close(v.id)
+            or (v.first_session == session and v.observations <= barely))]
 
     def unconfirmed_sightings(self) -> list[Sighting]:
         """First sightings of the current session never confirmed (robust mode,
