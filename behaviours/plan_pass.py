@@ -169,7 +169,7 @@ class PlanRefreshStops(PlanPhase):
     """
 
     Params = RefreshParams
-    config_params = {"view_range": EXPECT_RANGE, "stale_after": "mission.stale_after",
+    config_params = {"view_range": EXPECT_RANGE, "look_range": MISS_FULL_RANGE, "stale_after": "mission.stale_after",
                      "arrival_tolerance": "sim.planner.goal_tolerance"}
     phase = REFRESH
 

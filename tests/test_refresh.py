@@ -155,7 +155,8 @@ def test_a_node_the_pass_left_unresolved_is_looked_at_first_from_where_no_object
     ids = np.array([0, 7])
     start = Pose2D(15.0, 1.0, 0.0)
     ahead = np.array([[20.0, 1.0], [13.0, 1.0], [24.0, 1.0]])  # only (20, 1) stands behind the chair
-    plan = dict(now=NOW, start=start, distances=euclidean, params=RefreshParams(second_look_radii=()))
+    # look_range 0: the view range (5 m), as far as these places stand
+    plan = dict(now=NOW, start=start, distances=euclidean, params=RefreshParams(second_look_radii=(), look_range=0.0))
     stops = refresh_viewpoints(corridor(), [stale], candidates=ahead, budget=12.0, **plan,
                                second_looks=[(table, None)], occluders=boxes, occluder_ids=ids)
     assert [(s.x, s.y) for s in stops][:1] == [(24.0, 1.0)] and faces(stops[0], table)
@@ -167,6 +168,25 @@ def test_a_node_the_pass_left_unresolved_is_looked_at_first_from_where_no_object
     clear = refresh_viewpoints(corridor(), [], candidates=ahead[:1], budget=12.0, **plan,
                                second_looks=[(table, None)], spacing=5.0, occluders=boxes[:1], occluder_ids=ids[:1])
     assert [(s.x, s.y) for s in clear] == [(20.0, 1.0)]
+
+
+def test_a_look_that_must_decide_stands_where_a_miss_weighs_in_full():
+    """A trash bin the pass added on its two confirming frames (two false detections) is looked
+    at from 4.5 m, the reached place on the robot's way: frames there count a fifth of a miss
+    each and the bin stayed on the map (issue 17, s7717 pass 3). With ``look_range`` 2.5 m the
+    look stands at the reached place 2 m from it, though it is farther to drive; with 0 (the
+    view range) the near-the-way place does, as before."""
+    bin_ = node(0, 20.0, 3.5, None)
+    bin_.category = "trash bin"
+    reached = np.array([[16.0, 1.5], [20.0, 1.5]])  # 4.5 m and 2.0 m from the bin
+    start = Pose2D(14.0, 1.5, 0.0)
+    for look_range, place in ((2.5, (20.0, 1.5)), (0.0, (16.0, 1.5))):
+        stops = refresh_viewpoints(corridor(), [], NOW, reached, start, 12.0, euclidean,
+                                   RefreshParams(second_look_radii=(), look_range=look_range),
+                                   second_looks=[(bin_, None)])
+        assert [(s.x, s.y) for s in stops] == [place] and faces(stops[0], bin_)
+    with pytest.raises(ValueError):
+        RefreshParams(min_range=0.5, look_range=0.4)
 
 
 def test_a_second_look_may_stand_on_free_floor_round_the_node_where_the_robot_never_stopped():

@@ -140,8 +140,9 @@ def test_plan_refresh_stops_go_back_to_nodes_seen_long_ago(ctx, robot):
 
 def test_plan_refresh_stops_look_again_from_another_place_at_a_node_missed_from_one_spot(ctx, robot):
     """association.miss_spacing: the run of misses from (8, 5) would remove the chair but was one
-    look; the refresh tour goes where the robot has been 2.7 m from it, not back to (8, 5)."""
-    state = start_pass(ctx, (2, 5), (6, 5), (8, 5))
+    look; the refresh tour looks from elsewhere, within projection.miss_full_range (2.5 m) of
+    the chair, where a miss weighs in full, not back from (8, 5)."""
+    state = start_pass(ctx, (2, 5), (6.5, 5), (8, 5))
     for _ in range(3):
         state.mark(state.next(), VISITED)
     graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=1, miss_spacing=0.2))
@@ -154,7 +155,7 @@ def test_plan_refresh_stops_look_again_from_another_place_at_a_node_missed_from_
     assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == 1
     assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 awaiting a second look"
     stop = state.waypoint(len(state.states) - 1)
-    assert (stop.x, stop.y) == (6.0, 5.0)
+    assert math.dist((stop.x, stop.y), (8.0, 5.0)) >= 0.2 + 0.3 and math.dist((stop.x, stop.y), (8.5, 6.0)) <= 2.5
 
 
 def test_plan_refresh_stops_look_at_a_node_the_pass_left_unresolved_past_no_other_object(ctx, robot):
@@ -162,7 +163,7 @@ def test_plan_refresh_stops_look_at_a_node_the_pass_left_unresolved_past_no_othe
     past the chair pushed in at it, in the lidar's shadow (unknown on the map). The leaf plans a
     stop where the robot has been that sees the table clear of the chair, not the one behind it."""
     robot.grid.data[88:112, 4:40] = -1  # the table's and chair's shadow on the saved map
-    state = start_pass(ctx, (3.0, 8.0), (3.5, 5.0), (6.0, 5.0))
+    state = start_pass(ctx, (2.5, 7.0), (3.5, 5.0), (6.0, 5.0))
     for _ in range(3):
         state.mark(state.next(), VISITED)
     table = Node(0, "table", np.array([1.0, 5.0, 0.4]), 0.9, 1, 1, footprint=np.array([0.6, 4.4, 1.3, 5.6]))
@@ -173,8 +174,8 @@ def test_plan_refresh_stops_look_at_a_node_the_pass_left_unresolved_past_no_othe
     assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == 1
     assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 left unresolved"
     stop = state.waypoint(len(state.states) - 1)
-    assert (stop.x, stop.y) == (3.0, 8.0)
-    assert abs(math.atan2(5.0 - 8.0, 1.0 - 3.0) - stop.yaw) < math.radians(25.0)
+    assert (stop.x, stop.y) == (2.5, 7.0)
+    assert abs(math.atan2(5.0 - 7.0, 1.0 - 2.5) - stop.yaw) < math.radians(25.0)
 
 
 def test_plan_refresh_stops_look_again_where_the_pass_caught_an_object_in_one_frame_only(ctx, robot):
@@ -182,7 +183,7 @@ def test_plan_refresh_stops_look_again_where_the_pass_caught_an_object_in_one_fr
     (a new object needs two frames) and no node stands there. The leaf plans a stop where the
     robot has been, facing the bin; with ``unconfirmed: false`` it plans none."""
     for unconfirmed, stops in ((True, 1), (False, 0)):
-        state = start_pass(ctx, (3.0, 8.0), (6.0, 5.0))
+        state = start_pass(ctx, (2.5, 7.0), (6.0, 5.0))
         for _ in range(2):
             state.mark(state.next(), VISITED)
         ctx.session = 2
@@ -203,7 +204,7 @@ def test_plan_refresh_stops_look_again_at_an_object_the_pass_added_on_its_two_co
     """Two frames 4.5 s apart confirmed a trash bin (two false detections at one place on a
     wall, in the run this was traced on) and no frame matched it after: the leaf plans a stop
     where the robot has been, facing it, so the pass itself confirms or retracts it."""
-    state = start_pass(ctx, (3.0, 8.0), (6.0, 5.0))
+    state = start_pass(ctx, (2.5, 7.0), (6.0, 5.0))
     for _ in range(2):
         state.mark(state.next(), VISITED)
     ctx.session = 2
