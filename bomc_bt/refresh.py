@@ -90,7 +90,7 @@ class RefreshParams:
     budget: float = 0.3
     view_range: float = 5.0  # m: projection.expect_range, where a frame counts a miss
     # [m] a look that must decide a node or sighting stands this near it, where a miss weighs in
-    # full (the leaf takes projection.miss_full_range; 0: view_range). From 4.5 m a frame's miss
+    # full (the leaf takes projection.miss_full_range; not above min_range: view_range). From 4.5 m a miss
     # weighs a fifth, and a look there left a false trash bin on the map (issue 17)
     look_range: float = 2.5
     min_range: float = 0.5  # m: nearer, the node is below the tilted camera's image
@@ -116,8 +116,8 @@ class RefreshParams:
     def __post_init__(self) -> None:
         if min(self.stale_after, self.budget, self.stop_cost, self.max_viewpoints, self.arrival_tolerance) < 0:
             raise ValueError("need stale_after, budget, stop_cost, max_viewpoints and arrival_tolerance >= 0")
-        if not 0 <= self.min_range < self.view_range or not (self.look_range == 0 or self.look_range > self.min_range):
-            raise ValueError("need 0 <= min_range < view_range, and look_range 0 or above min_range")
+        if not 0 <= self.min_range < self.view_range or self.look_range < 0:
+            raise ValueError("need 0 <= min_range < view_range and look_range >= 0")
         if any(not self.min_range <= r <= self.view_range for r in self.second_look_radii):
             raise ValueError("second_look_radii must lie within [min_range, view_range]")
         if self.second_look_clearance < 0:
@@ -186,8 +186,8 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
                           dtype=float).reshape(-1, 2)
         apart = np.hypot(candidates[:, None, 0] - places[None, :, 0], candidates[:, None, 1] - places[None, :, 1])
         sight[:, :len(second_looks)] &= np.isnan(apart) | (apart >= spacing + params.arrival_tolerance)
-        if params.look_range > 0:
-            looked = np.array([n.position[:2] for n, _ in second_looks], dtype=float).reshape(-1, 2)
+        if params.look_range > params.min_range:  # else no place would be both near enough and in the image
+            looked = targets[:len(second_looks)]
             sight[:, :len(second_looks)] &= np.hypot(candidates[:, None, 0] - looked[None, :, 0],
                                                      candidates[:, None, 1] - looked[None, :, 1]) \
                 <= params.look_range + 1e-6

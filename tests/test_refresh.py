@@ -175,7 +175,8 @@ def test_a_look_that_must_decide_stands_where_a_miss_weighs_in_full():
     at from 4.5 m, the reached place on the robot's way: frames there count a fifth of a miss
     each and the bin stayed on the map (issue 17, s7717 pass 3). With ``look_range`` 2.5 m the
     look stands at the reached place 2 m from it, though it is farther to drive; with 0 (the
-    view range) the near-the-way place does, as before."""
+    view range) the near-the-way place does, as before, and with a range below ``min_range``
+    (no place could be that near and show it) too, rather than no look at all."""
     bin_ = node(0, 20.0, 3.5, None)
     bin_.category = "trash bin"
     reached = np.array([[16.0, 1.5], [20.0, 1.5]])  # 4.5 m and 2.0 m from the bin
@@ -185,8 +186,12 @@ def test_a_look_that_must_decide_stands_where_a_miss_weighs_in_full():
                                    RefreshParams(second_look_radii=(), look_range=look_range),
                                    second_looks=[(bin_, None)])
         assert [(s.x, s.y) for s in stops] == [place] and faces(stops[0], bin_)
+    # a miss_full_range the camera cannot stand within (below min_range) falls back to the view range
+    stops = refresh_viewpoints(corridor(), [], NOW, reached, start, 12.0, euclidean,
+                               RefreshParams(second_look_radii=(), look_range=0.4), second_looks=[(bin_, None)])
+    assert [(s.x, s.y) for s in stops] == [(16.0, 1.5)]
     with pytest.raises(ValueError):
-        RefreshParams(min_range=0.5, look_range=0.4)
+        RefreshParams(look_range=-1.0)
 
 
 def test_a_second_look_may_stand_on_free_floor_round_the_node_where_the_robot_never_stopped():
