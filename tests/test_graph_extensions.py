@@ -379,6 +379,26 @@ def test_a_chair_first_seen_beside_a_nodes_own_view_is_not_dragged_into_that_nod
     assert abs(b.position[0] - 0.6) < 0.02
 
 
+def test_a_chair_mapped_in_a_frame_that_matched_its_neighbour_is_never_folded_into_it():
+    """Environment-A-size floor, seed 9922, pass 1 (issue 17): chairs A and B 0.8 m apart at a
+    table, seen cut off by it. One frame confirms A's sighting and begins B's (A's node is new,
+    so B's sighting began beside no node); a later frame matches A's node and confirms B, each
+    by its own detection: two chairs at once. A view whose mask bled over both, B's node
+    hidden, then folded B into A (ten chairs at tables left without a node of their own). A
+    node placed in a frame is now seen apart from the nodes that frame matched."""
+    g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
+    g.associate([cut(-0.2, 0.2)], [], 1, 0.0)
+    a = g.associate([cut(-0.2, 0.2), cut(0.6, 1.0)], [], 1, 1.0)[0].node_id  # A's node; B waits
+    events = g.associate([cut(-0.2, 0.2), cut(0.6, 1.0)], [a], 1, 2.0)
+    b = next(e.node_id for e in events if e.kind == "added")
+    assert g.policy.co_observed.seen_apart(a, b)
+    bled = boxed("chair", -0.15, -0.25, 0.95, 0.1)  # one view over both, centre between them
+    bled.truncated = True
+    g.associate([bled], [a], 1, 3.0, in_view=[a, b])
+    assert {a, b} <= set(g.nodes)
+    assert abs(g.nodes[b].position[0] - 0.8) < 0.2
+
+
 def test_a_resumed_pass_still_knows_which_node_a_waiting_sighting_began_beside():
     g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
     g.associate([cut(-0.2, 0.2)], [], 1, 0.0)

@@ -147,7 +147,9 @@ class RobustPolicy:
             if not moved:
                 self.extents.grow(graph, placed[-1], o, self.gate(o))
                 self.co_observed.add(placed[-1].id, self.tentative.beside_of[k])  # its first frame showed both
-        self.co_observed.note(placed, self.params.extent_gate * self.params.largest_distance())  # seen as two at once
+        # seen as two at once: the nodes placed and those matched, each by its own detection
+        both = {v.id: v for v in placed} | {v: graph.nodes[v] for v in matched_nodes if v in graph.nodes}
+        self.co_observed.note(both.values(), self.params.extent_gate * self.params.largest_distance())
         hidden = set(in_view or ()) - set(exp)
         events.extend(self._merge_hidden_duplicates(graph, pairs, matched_nodes, hidden, obs, session, stamp,
                                                     before))
