@@ -384,7 +384,7 @@ def test_a_chair_mapped_in_a_frame_that_matched_its_neighbour_is_never_folded_in
     table, seen cut off by it. One frame confirms A's sighting and begins B's (A's node is new,
     so B's sighting began beside no node); a later frame matches A's node and confirms B, each
     by its own detection: two chairs at once. A view whose mask bled over both, B's node
-    hidden, then folded B into A (ten chairs at tables left without a node of their own). A
+    hidden, then folded B into A (nine chairs at tables left without a node of their own). A
     node placed in a frame is now seen apart from the nodes that frame matched."""
     g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
     g.associate([cut(-0.2, 0.2)], [], 1, 0.0)
