@@ -63,12 +63,3 @@ def test_a_cabinet_against_a_side_wall_keeps_off_the_wall_its_mask_bled_onto():
     bled = bleed_mask(dets[0].mask, 0.3)
     [o] = detections_to_observations(frame, [dets[0].with_mask(bled)], ProjectionParams())
     assert o.box[2] < 3.1  # the cabinet ends at 2.95 m (grown over the spill: 4.3 m)
-
-
-def test_a_door_seen_from_close_is_marked_cut_by_the_image_top():
-    door = WorldObject("d", "door", (1.6, 0.0, 1.0), (0.06, 0.9, 2.0), 0.0)
-    _, [near] = perfect_observations(see([door], POSE), ["door"])
-    assert near.above_image and not near.below_image and near.position[2] < 0.8  # its lower part only
-    chair = WorldObject("c", "chair", (3.0, 0.0, 0.45), (0.5, 0.5, 0.9), 0.0)
-    _, [whole] = perfect_observations(see([chair], POSE), ["chair"])
-    assert not whole.above_image and not whole.below_image

@@ -258,10 +258,8 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
             centre = np.array([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, centre[2]])
         distance = float(np.median(kept[:, 2]))
         box = np.concatenate([lo, hi]) if distance <= params.box_range else None
-        _, top, _, height = _mask_bounds(det.mask)
         out.append(Observation(det.category, centre, float(det.score), len(cam), horizontal_extent(points, centre),
-                               box=box, truncated=truncated(frame.depth, det.mask, distance),
-                               above_image=top == 0, below_image=top + height >= det.mask.shape[0]))
+                               box=box, truncated=truncated(frame.depth, det.mask, distance)))
         stats.observations += 1
     return out
 
