@@ -32,28 +32,10 @@ def test_a_new_object_is_added_only_once_a_second_frame_confirms_it():
     events = g.associate([obs("bin", 3.05, 1.0)], [], 1, 1.0)
     assert [e.kind for e in events] == ["added"]
     assert abs(g.nodes[events[0].node_id].position[0] - 3.025) < 1e-9  # mean of the sightings
-    # a false positive seen once is never added: nothing confirms it, in its ttl or after
+    # a false positive seen once is forgotten after the ttl
     g.associate([obs("door", 9.0, 9.0)], [], 1, 2.0)
-    assert g.associate([obs("door", 12.0, 9.0)], [], 1, 20.0) == []
-    assert g.associate([], [], 1, 60.0) == []
+    assert g.associate([obs("door", 9.0, 9.0)], [], 1, 20.0) == []
     assert all(n.category != "door" for n in g.nodes.values())
-
-
-def test_a_chair_seen_once_and_again_after_its_ttl_is_added_at_the_mean_of_both_sightings():
-    """The robot passed the chair twice, each time in one frame, 15 s apart: two sightings
-    as much as two frames a second apart are. Timed out between them, such chairs were never
-    mapped (Environment-A-size floor, seed 9922 pass 1: three of its nine missed chairs)."""
-    g = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
-    assert g.associate([obs("chair", 3.0, 1.0)], [], 1, 0.0) == []
-    assert g.associate([], [], 1, 12.0) == []  # its ttl ran out: lapsed, waiting for a look
-    assert [e.kind for e in g.associate([obs("chair", 3.2, 1.0)], [], 1, 15.0)] == ["added"]
-    [v] = g.nodes.values()
-    assert abs(v.position[0] - 3.1) < 1e-9
-    assert g.unconfirmed_sightings() == []  # no look is due any more
-    other = ObjectGraph(AssociationParams(confirm_detections=2, confirm_interval=0.5, tentative_ttl=10.0))
-    other.associate([obs("chair", 3.0, 1.0)], [], 1, 0.0)
-    assert other.associate([obs("chair", 4.0, 1.0)], [], 1, 15.0) == []  # 1 m off: another place
-    assert other.associate([obs("chair", 3.0, 1.0)], [], 2, 30.0) == []  # a new pass starts afresh
 
 
 def test_the_paper_mode_keeps_the_plain_threshold():

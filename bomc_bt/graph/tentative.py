@@ -10,9 +10,7 @@ A sighting whose time runs out unconfirmed is kept as *lapsed* for the rest of t
 object the camera caught once while turning (a bin in a corner, a chair behind a table
 seen from a doorway 3.5 m away) is as likely as a false positive, and only a second look
 tells which. Look Around turns to it once (:mod:`bomc_bt.look_around`), and Refresh Stale
-plans a stop for what is left at the pass's end (:mod:`bomc_bt.refresh`). A second look
-confirms it whenever it comes, on the way or at a stop: a false positive seen once is not
-seen at the same place again, a chair the robot passes twice is.
+plans a stop for what is left at the pass's end (:mod:`bomc_bt.refresh`).
 """
 
 from __future__ import annotations
@@ -144,51 +142,17 @@ class TentativeSightings:
             t, o = self.waiting[k], observations[j]
             if stamp - t.last < self.params.confirm_interval:
                 continue  # the same burst of frames: not independent evidence
-            if (counted := self._count(t, o, j, stamp, out)) is None:
+            count = t.count + 1
+            mean = (t.position * (count - 1) + o.position) / count
+            if count >= need:
+                o.position, out[j] = mean, True
+                self.beside_of[j] = t.beside
                 done.add(k)
             else:
-                self.waiting[k] = counted
+                self.waiting[k] = Sighting(t.category, mean, count, stamp, t.first, t.beside)
         self.waiting = [t for k, t in enumerate(self.waiting) if k not in done]
-        for j, t in self._revived(observations, gates, used):
-            if (counted := self._count(t, observations[j], j, stamp, out)) is not None:
-                self.waiting.append(counted)
         self.waiting.extend(Sighting(o.category, o.position.copy(), 1, stamp, stamp, beside[j] if beside else None)
                             for j, o in enumerate(observations) if j not in used)
-        return out
-
-    def _count(self, t: Sighting, o: Observation, j: int, stamp: float, out: list[bool]) -> Sighting | None:
-        """One more sighting of ``t``, by ``o`` (observation ``j`` of the frame): None when that
-        confirms it (``o`` then stands at the mean of the sightings, ``out[j]`` is set), else
-        the sighting counted on."""
-        count = t.count + 1
-        mean = (t.position * (count - 1) + o.position) / count
-        if count >= self.params.confirm_detections:
-            o.position, out[j] = mean, True
-            self.beside_of[j] = t.beside
-            return None
-        return Sighting(t.category, mean, count, stamp, t.first, t.beside)
-
-    def _revived(self, observations: Sequence[Observation], gates: Sequence[float],
-                 used: set[int]) -> list[tuple[int, Sighting]]:
-        """(observation index, lapsed sighting) pairs, nearest first, of observations that
-        continue no waiting sighting but lie within their gate of a lapsed one: a second look
-        at a place seen once earlier in the pass (the lapsed sighting leaves the lapsed list;
-        ``used`` gains the observations).
-
-        A chair passed twice, each time in one frame, 11-17 s apart, is two sightings as
-        much as two frames a second apart are; timed out between them, it was never mapped
-        (Environment-A-size floor, seed 9922 pass 1: three of its nine missed chairs)."""
-        pairs = sorted((float(np.linalg.norm((t.position - o.position) * self.scale)), k, j)
-                       for j, o in enumerate(observations) if j not in used
-                       for k, t in enumerate(self.lapsed) if t.category == o.category)
-        out: list[tuple[int, Sighting]] = []
-        taken: set[int] = set()
-        for d, k, j in pairs:
-            if d <= gates[j] and k not in taken and j not in used:
-                taken.add(k)
-                used.add(j)
-                out.append((j, self.lapsed[k]))
-        self.lapsed = [t for k, t in enumerate(self.lapsed) if k not in taken]
         return out
 
 
