@@ -90,8 +90,8 @@ class RefreshParams:
     budget: float = 0.3
     view_range: float = 5.0  # m: projection.expect_range, where a frame counts a miss
     # [m] a look that must decide a node or sighting stands this near it, where a miss weighs in
-    # full (the leaf takes projection.miss_full_range; at or below min_range, view_range). From 4.5 m a miss
-    # weighs a fifth, and a look there left a false trash bin on the map (issue 17)
+    # full (the leaf takes projection.miss_full_range; a value at or below min_range means view_range).
+    # From 4.5 m a miss weighs a fifth, and a look there left a false trash bin on the map (issue 17)
     look_range: float = 2.5
     min_range: float = 0.5  # m: nearer, the node is below the tilted camera's image
     stop_cost: float = 3.0  # m of driving that one stop's turning and dwelling are worth
