@@ -318,6 +318,10 @@ class ProjectionParams:
     # for footprints; depth noise grows with range squared, and a box from a far view is
     # inflated along the ray by it (at 7 m a typical sensor's noise is ~0.25 m).
     box_range: float = 4.0
+    # [bool] an object's far part moves its view's centre: the mask's pixels beyond the range
+    # cut that go on from the kept ones without a jump in range (a table seen end-on; see
+    # bomc_bt.perception.far_part); the floor box stays the cut's; false: the range cut alone
+    far_part: bool = True
 
     def __post_init__(self) -> None:
         if self.min_points < 1 or self.stride < 1:

@@ -434,3 +434,19 @@ def test_a_first_sighting_left_unconfirmed_waits_for_a_look_one_confirmed_or_at_
     assert [t.category for t in resumed.unconfirmed_sightings()] == ["trash bin"]
     g.associate([], [], 3, 40.0)
     assert g.unconfirmed_sightings() == []
+
+
+def test_a_view_cut_by_the_image_top_only_raises_a_nodes_height():
+    """Close views of a door show its lower metre; averaged in, the last few put the node
+    0.7 m low, past the scoring distance (office-s pass 2). A view cut at the image's top
+    only raises the height; any other view moves it either way."""
+    g = ObjectGraph(AssociationParams(), [node(0, "door", 0.0, 0.0, z=1.0)])
+    low = Observation("door", np.array([0.0, 0.0, 0.3]), 0.9, 500, above_image=True)
+    for t in range(10):
+        g.associate([low], [0], 1, float(t))
+    assert g.nodes[0].position[2] == 1.0
+    g.associate([Observation("door", np.array([0.0, 0.0, 1.3]), 0.9, 500, above_image=True)], [0], 1, 20.0)
+    high = g.nodes[0].position[2]
+    assert 1.0 < high < 1.3
+    g.associate([obs("door", 0.0, 0.0, z=0.5)], [0], 1, 22.0)
+    assert g.nodes[0].position[2] < high  # a whole view moves it either way

@@ -11,8 +11,7 @@
   of robot time, and goes at ``confirm_misses`` consecutive misses seen from robot places ``miss_spacing``
   apart (misses from one spot are one look). Misses are weighed by how often the frames that expected the node
   saw it (:meth:`RobustPolicy.misses_needed`): an object often missed from where the robot passes needs more.
-* *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in
-  ``confirm_detections`` frames.
+* *Confirm before adding* (:mod:`bomc_bt.graph.tentative`): a new object must be seen in ``confirm_detections`` frames.
 * *One object, one label* (:mod:`bomc_bt.graph.confusions`): a new sighting within ``relabel_radius`` of a
   node of another category counts only in a frame that matched that node.
 * *No duplicates.* An unmatched observation within delta_c of a same-category node (which then has been
@@ -31,14 +30,14 @@
   into the old one, which moves there (the robot saw the chair's new place before its old one). Neither way
   beyond delta_c to a place no earlier pass looked at: that object was always there. A shift while its
   footprint grew over the old one is no move (:mod:`bomc_bt.graph.refinement`).
-* *Retract, not remove, what was barely seen.* A node matched in at most ``retract_observations`` frames in
-  all (by default: never matched again after the two sightings of a look-alike that confirmed it) that misses
-  take off is marked retracted: the map drops it either way, but the change report does not tell the operator
-  an object went (:mod:`bomc_bt.net_changes`).
-* *Updated events are sparse*: at a node's first match in a session, after a drift of ``report_distance``
-  since the last report; the store reconciles exact values at the end.
+* *Retract, not remove, what was barely seen.* A node matched in at most ``retract_observations`` frames in all
+  (by default: never matched again after the two sightings of a look-alike that confirmed it) that misses take
+  off is marked retracted: the map drops it either way, but the change report does not tell the operator an
+  object went (:mod:`bomc_bt.net_changes`).
+* *Sparse updated events*: at a node's first match in a session, after a ``report_distance`` drift (reconciled at end).
 
-Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object cut off by the image edge sits low.
+Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object cut off by the image edge sits low
+(such a view only bounds a node's height: :func:`~bomc_bt.graph.records.bounded_height`).
 """
 
 from __future__ import annotations
@@ -55,7 +54,7 @@ from bomc_bt.graph.evidence import misses_needed
 from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.parts import part_pairs, reference_lengths
-from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation
+from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation, bounded_height
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.returns import moves_taken_back
 from bomc_bt.graph.tentative import TentativeSightings
@@ -257,6 +256,7 @@ class RobustPolicy:
         self.extents.grow(graph, v, o, self.gate(o), restart=first_in_session if restart is None else restart,
                           extend=extend)
         target = (1.0 - w) * v.position + w * o.position
+        target[2] = bounded_height(o, v.position[2], target[2])
         if self.extents.is_big(v):  # the middle of the floor it covers, not of its visible faces
             target[:2] = (v.footprint[:2] + v.footprint[2:]) / 2.0
         graph.relocate(v, target)

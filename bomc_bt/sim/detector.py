@@ -154,6 +154,11 @@ class SimDetector:
             out.append(det.with_mask(mask))
         return out
 
+    def source(self, frame: RGBDFrame, det: Detection) -> int | None:
+        """The instance id a detection this detector made of ``frame`` came from (0: a false
+        positive; None: not its own); benchmarks score single views with it."""
+        return self._sources.get((frame.stamp, tuple(det.box), det.category))
+
     # -- helpers -------------------------------------------------------------------------
     def _min_pixels(self, instances: np.ndarray) -> int:
         return max(1, round(self.params.min_pixels * instances.size / _REFERENCE_AREA))
