@@ -41,7 +41,7 @@ def test_the_far_part_moves_a_views_centre_but_not_its_floor_box():
 def test_a_chair_at_a_table_does_not_take_the_table_top_its_mask_bled_onto():
     """The chair touches the table's edge, so the two are one surface in range; the chair's
     far part grows from its own pixels, not from the table top its mask spilled onto (grown
-    from the spilled mask, the box reached 0.4 m onto the table)."""
+    from the spilled mask, the centre went 0.21 m onto the table, the box 0.4 m)."""
     table = WorldObject("t", "table", (3.6, 0.0, 0.375), (0.8, 1.6, 0.75), 0.0)  # x 3.2 to 4.0
     chair = WorldObject("c", "chair", (2.95, 0.3, 0.45), (0.5, 0.5, 0.9), 0.0)  # x 2.7 to 3.2, touching
     x, y = 2.4, 1.6  # looking down on the chair over its corner, the table top beyond it
@@ -50,7 +50,7 @@ def test_a_chair_at_a_table_does_not_take_the_table_top_its_mask_bled_onto():
     bled = bleed_mask(dets[0].mask, 0.1)
     [o] = detections_to_observations(frame, [dets[0].with_mask(bled)], ProjectionParams())
     assert o.box[2] < 3.35  # the box ends at the chair's back (3.2 m), not on the table
-    assert np.linalg.norm(o.position[:2] - [2.95, 0.3]) < 0.2
+    assert np.linalg.norm(o.position[:2] - [2.95, 0.3]) < 0.1
 
 
 def test_a_small_group_of_points_far_behind_a_view_in_two_parts_is_not_the_object():
@@ -65,8 +65,9 @@ def test_a_small_group_of_points_far_behind_a_view_in_two_parts_is_not_the_objec
 
 
 def test_a_cabinet_against_a_side_wall_keeps_off_the_wall_its_mask_bled_onto():
-    """The side wall recedes from the cabinet's face without a jump in range; what the mask
-    spilled onto it is no far part of the cabinet."""
+    """The side wall recedes from the cabinet's face without a jump in range. The range cut
+    alone keeps the cabinet's near face (centre 2.22 m, 0.28 m short); its far part brings
+    the centre to its middle, and what the mask spilled onto the wall does not drag it along."""
     walls, grid = empty_world()
     row, _ = grid.world_to_cell(0.0, -0.55)
     walls[int(row) - 3:int(row), :] = True  # a wall along the x axis, 0.55 m to the right
@@ -75,7 +76,7 @@ def test_a_cabinet_against_a_side_wall_keeps_off_the_wall_its_mask_bled_onto():
     dets, _ = perfect_observations(frame, ["cabinet"])
     bled = bleed_mask(dets[0].mask, 0.3)
     [o] = detections_to_observations(frame, [dets[0].with_mask(bled)], ProjectionParams())
-    assert abs(o.position[0] - 2.5) < 0.1  # grown over the spill (to 4.3 m) its middle is 3.1 m
+    assert abs(o.position[0] - 2.5) < 0.1
 
 
 def test_a_door_seen_from_close_is_marked_cut_by_the_image_top():

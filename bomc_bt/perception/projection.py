@@ -261,10 +261,9 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         centre = T[:3, :3] @ whole.mean(axis=0) + T[:3, 3]
         points = kept @ T[:3, :3].T + T[:3, 3]
         lo, hi = np.percentile(points[:, :2], [1.0, 99.0], axis=0)  # the floor area it covers
-        if params.centre == "footprint":
-            w_lo, w_hi = (lo, hi) if whole is kept else np.percentile(whole @ T[:2, :3].T + T[:2, 3], [1.0, 99.0],
-                                                                         axis=0)
-            centre = np.array([(w_lo[0] + w_hi[0]) / 2.0, (w_lo[1] + w_hi[1]) / 2.0, centre[2]])
+        if params.centre == "footprint":  # the middle of all its points' floor spread, far part included
+            spread = (lo, hi) if whole is kept else np.percentile(whole @ T[:2, :3].T + T[:2, 3], [1.0, 99.0], axis=0)
+            centre = np.array([*((spread[0] + spread[1]) / 2.0), centre[2]])
         distance = float(np.median(kept[:, 2]))
         box = np.concatenate([lo, hi]) if distance <= params.box_range else None
         _, top, _, _ = _mask_bounds(det.mask)
