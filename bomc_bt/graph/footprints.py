@@ -50,6 +50,11 @@ def longest_side(box: np.ndarray) -> float:
     return float(max(box[2] - box[0], box[3] - box[1]))
 
 
+def shortest_side(box: np.ndarray) -> float:
+    """The shorter side of a floor box."""
+    return float(min(box[2] - box[0], box[3] - box[1]))
+
+
 def half_diagonal(box: np.ndarray) -> float:
     """Half the box's diagonal: how far its corners reach from its middle."""
     return 0.5 * math.hypot(box[2] - box[0], box[3] - box[1])

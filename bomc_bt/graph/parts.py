@@ -48,6 +48,20 @@ longer than delta_c and a third of its footprints are longer than delta_c plus t
 Both must hold for a chair to count as big: its footprints reach that far where masks bled
 over the chair beside, and its whole views stay near delta_c (0.56-0.74 m on the 36 x 28 m
 offices measured, where tables' reached 0.57-1.61 m).
+
+Two parts make one object of the category's size in both directions: in a big category the
+joint box is also no wider across than the footprints of its nodes that are no parts reach
+(the same share and rank as the length, of their shorter sides). Doors are big where one is
+seen whole (0.9 m, longer than delta_c) and their masks bleed along the wall to 1.3-2.0 m:
+on office-s (build seed 2, pass 2) two doors facing each other across the 2.1 m corridor,
+each a sliver of the pair's length, were joined into one door in the corridor's middle (the
+pass's object F1 0.952; their joint box 2.25 x 1.97 m, door footprints 0.2-0.6 m across).
+On an Environment-A-size floor (seed 9955, pass 1) two 1.2 x 0.6 m tables standing side by
+side, offset along their length, were joined into one (joint box 1.52 x 2.33 m); the ends
+of tables joined there were 0.85-0.98 m across, the tables' width with the mask's bleed.
+The widest footprint alone does not bound it: some table's footprint there reached 1.3 m
+across. Nor does the gap between the two (what hides a table's middle is a chair): ends
+of 1.6 m tables lay 0.65-0.88 m apart.
 """
 
 from __future__ import annotations
@@ -57,7 +71,7 @@ from collections.abc import Callable, Container, Iterable
 
 import numpy as np
 
-from bomc_bt.graph.footprints import longest_side, union
+from bomc_bt.graph.footprints import longest_side, shortest_side, union
 from bomc_bt.graph.records import Node
 
 # [-] a node whose footprint is at most this share of its category's reference length is a
@@ -110,8 +124,10 @@ def part_pairs(nodes: Iterable[Node], reference: dict[str, float], margin: float
     """Pairs of nodes that are parts of one object, each node in at most one pair, nearest
     first (ties by ids); ``reference``: :func:`reference_lengths`. In a ``big`` category
     only the shorter of the two must be a part, measured along the joint box's long axis
-    (the other may be most of the object), and the joint box may be ``hidden`` (m) longer
-    than the reference."""
+    (the other may be most of the object), the joint box may be ``hidden`` (m) longer
+    than the reference, and in a big category no wider (its shorter side) than the
+    footprints of the category's nodes that are no parts reach across (:func:`footprint_length`
+    of their shorter sides; none with fewer than ``FOOTPRINT_RANK``) plus ``margin``."""
     by_category: dict[str, list[Node]] = {}
     for v in nodes:
         whole = reference.get(v.category)
@@ -123,12 +139,15 @@ def part_pairs(nodes: Iterable[Node], reference: dict[str, float], margin: float
         is_big = category in big
         limit = reference[category] + margin + (hidden if is_big else 0.0)
         part = PART_SHARE * reference[category]
+        width = footprint_length([shortest_side(v.footprint) for v in parts
+                                  if longest_side(v.footprint) > part]) if is_big else None
         for i, a in enumerate(parts):
             for b in parts[i + 1:]:
                 joint = union(a.footprint, b.footprint)
                 shorter = min(_held(a.footprint, joint), _held(b.footprint, joint)) if is_big \
                     else min(longest_side(a.footprint), longest_side(b.footprint))
-                if shorter <= part and longest_side(joint) <= limit and not seen_apart(a.id, b.id):
+                wide = width is not None and shortest_side(joint) > width + margin
+                if shorter <= part and longest_side(joint) <= limit and not wide and not seen_apart(a.id, b.id):
                     gap = float(np.hypot(*(a.position[:2] - b.position[:2])))
                     candidates.append((gap, min(a.id, b.id), max(a.id, b.id), a, b))
     candidates.sort(key=lambda c: c[:3])
