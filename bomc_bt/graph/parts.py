@@ -50,18 +50,18 @@ over the chair beside, and its whole views stay near delta_c (0.56-0.74 m on the
 offices measured, where tables' reached 0.57-1.61 m).
 
 Two parts make one object of the category's size in both directions: in a big category the
-joint box is also no wider across than the footprints of its nodes that are no parts reach
-(the same share and rank as the length, of their shorter sides). Doors are big where one is
-seen whole (0.9 m, longer than delta_c) and their masks bleed along the wall to 1.3-2.0 m:
-on office-s (build seed 2, pass 2) two doors facing each other across the 2.1 m corridor,
-each a sliver of the pair's length, were joined into one door in the corridor's middle (the
-pass's object F1 0.952; their joint box 2.25 x 1.97 m, door footprints 0.2-0.6 m across).
-On an Environment-A-size floor (seed 9955, pass 1) two 1.2 x 0.6 m tables standing side by
-side, offset along their length, were joined into one (joint box 1.52 x 2.33 m); the ends
-of tables joined there were 0.85-0.98 m across, the tables' width with the mask's bleed.
-The widest footprint alone does not bound it: some table's footprint there reached 1.3 m
-across. Nor does the gap between the two (what hides a table's middle is a chair): ends
-of 1.6 m tables lay 0.65-0.88 m apart.
+joint box is also no wider across than three in four of the footprints of its nodes that are
+no parts (their shorter sides). Doors are big where one is seen whole (0.9 m, longer than
+delta_c) and their masks bleed along the wall to 1.3-2.0 m: on office-s (build seed 2, pass
+2) two doors facing each other across the 2.1 m corridor, each a sliver of the pair's
+length, were joined into one door in the corridor's middle (the pass's object F1 0.952;
+their joint box 2.25 x 1.97 m, door footprints 0.2-0.6 m across). On an
+Environment-A-size floor (seed 9955, pass 1) two 1.2 x 0.6 m tables standing side by side,
+one 0.8 m further along, were joined into one (joint box 1.52 x 2.33 m); the ends of tables
+joined there were 0.85-0.98 m across, the tables' width with the mask's bleed. Not the
+widest footprints: a tenth of that floor's table footprints reached 1.3-1.6 m across, and
+against them the side-by-side tables were still joined. Nor the gap between the two (what
+hides a table's middle is a chair): ends of 1.6 m tables lay 0.65-0.88 m apart.
 """
 
 from __future__ import annotations
@@ -85,6 +85,10 @@ FOOTPRINT_RANK = 3  # [count] the fewest footprints that set a big category's si
 # [-] share of a category's footprints longer than delta_c plus the margin that makes it big
 # where no whole view was (a table seen whole only across its width)
 BIG_SHARE = 1.0 / 3.0
+# [-] quantile of the shorter sides of a big category's whole footprints (those no part) that
+# two parts joined must stay within across: masks bleed, and a tenth of the table footprints
+# on an Environment-A-size floor were 1.3-1.6 m across (tables 0.6-0.8 m wide)
+WIDTH_QUANTILE = 0.75
 
 
 def reference_lengths(nodes: Iterable[Node], longest_whole: dict[str, float],
@@ -125,9 +129,8 @@ def part_pairs(nodes: Iterable[Node], reference: dict[str, float], margin: float
     first (ties by ids); ``reference``: :func:`reference_lengths`. In a ``big`` category
     only the shorter of the two must be a part, measured along the joint box's long axis
     (the other may be most of the object), the joint box may be ``hidden`` (m) longer
-    than the reference, and in a big category no wider (its shorter side) than the
-    footprints of the category's nodes that are no parts reach across (:func:`footprint_length`
-    of their shorter sides; none with fewer than ``FOOTPRINT_RANK``) plus ``margin``."""
+    than the reference, and in a big category no wider (its shorter side) than three in four
+    of the category's footprints that are no parts (:func:`_width`) plus ``margin``."""
     by_category: dict[str, list[Node]] = {}
     for v in nodes:
         whole = reference.get(v.category)
@@ -139,8 +142,8 @@ def part_pairs(nodes: Iterable[Node], reference: dict[str, float], margin: float
         is_big = category in big
         limit = reference[category] + margin + (hidden if is_big else 0.0)
         part = PART_SHARE * reference[category]
-        width = footprint_length([shortest_side(v.footprint) for v in parts
-                                  if longest_side(v.footprint) > part]) if is_big else None
+        width = _width([shortest_side(v.footprint) for v in parts if longest_side(v.footprint) > part]) \
+            if is_big else None
         for i, a in enumerate(parts):
             for b in parts[i + 1:]:
                 joint = union(a.footprint, b.footprint)
@@ -158,6 +161,12 @@ def part_pairs(nodes: Iterable[Node], reference: dict[str, float], margin: float
             used |= {a.id, b.id}
             pairs.append((a, b))
     return pairs
+
+
+def _width(sides: list[float]) -> float | None:
+    """How wide (m) a category's objects are: the ``WIDTH_QUANTILE`` of the shorter sides
+    of its whole footprints; None with fewer than ``FOOTPRINT_RANK`` of them."""
+    return float(np.quantile(sides, WIDTH_QUANTILE)) if len(sides) >= FOOTPRINT_RANK else None
 
 
 def _held(box: np.ndarray, joint: np.ndarray) -> float:
