@@ -164,8 +164,8 @@ def test_two_doors_facing_each_other_across_a_corridor_stay_two():
     footprints bled along the wall to 1.3-2.0 m, so doors counted as big; two doors facing
     each other across the 2.1 m corridor were each a sliver of the joint box's length (0.2
     and 0.6 m of 2.25 m), which fit that reference, and they were joined into one door in
-    the middle of the corridor (the pass's object F1 0.952). Between them lies 1.45 m of
-    corridor: more than anything standing in front of an object hides of it."""
+    the middle of the corridor (the pass's object F1 0.952). The pair is 1.9 m across;
+    the doors' own footprints 0.2-0.6 m (here 0.3)."""
     graph = ObjectGraph(AssociationParams())
     frames = [[view("door", 20.0, 20.9, y0=-0.05, y1=0.05)]] * 3  # a door seen whole: 0.9 m
     for k, y in enumerate((10.0, 14.0, 18.0, 22.0)):  # doors seen with their masks bled along the wall
@@ -183,7 +183,7 @@ def test_two_tables_side_by_side_offset_along_their_length_stay_two():
     side, one 0.8 m further along; one seen over 0.6 m of its length, the other over 1.26 m.
     Each held half the pair's 2.33 m or less, which fit 1.75 m tables with a chair's width
     hidden, and they were joined into one table between them. Tables there are 0.9 m across
-    (a tenth of their footprints, bled over chairs, 1.4-1.6 m); the pair is 1.5 m across.
+    (a tenth of their footprints, bled over chairs, 1.3-1.6 m); the pair is 1.5 m across.
     The two ends of one table on that floor still join."""
     graph = ObjectGraph(AssociationParams())
     widths = [0.9] * 7 + [1.4, 1.5, 1.6]

@@ -55,7 +55,7 @@ no parts (their shorter sides). Doors are big where one is seen whole (0.9 m, lo
 delta_c) and their masks bleed along the wall to 1.3-2.0 m: on office-s (build seed 2, pass
 2) two doors facing each other across the 2.1 m corridor, each a sliver of the pair's
 length, were joined into one door in the corridor's middle (the pass's object F1 0.952;
-their joint box 2.25 x 1.97 m, door footprints 0.2-0.6 m across). On an
+their joint box 2.25 x 1.97 m, the four doors' footprints 0.17-0.63 m across). On an
 Environment-A-size floor (seed 9955, pass 1) two 1.2 x 0.6 m tables standing side by side,
 one 0.8 m further along, were joined into one (joint box 1.52 x 2.33 m); the ends of tables
 joined there were 0.85-0.98 m across, the tables' width with the mask's bleed. Not the
