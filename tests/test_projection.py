@@ -303,6 +303,43 @@ def test_a_detection_on_bare_floor_is_no_object_but_an_object_keeps_the_floor_it
     assert np.allclose(kept[0].position, unfiltered[0].position)  # the object's view is untouched
 
 
+def map_heights_and_x(frame) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the map-frame height and x of what its depth sees (NaN without depth)."""
+    rows, cols = np.indices(frame.depth.shape)
+    K, z = frame.K, frame.depth.astype(float)
+    cam = np.stack([(cols - K[0, 2]) / K[0, 0] * z, (rows - K[1, 2]) / K[1, 1] * z, z], axis=-1)
+    world = cam @ frame.T_map_camera[:3, :3].T + frame.T_map_camera[:3, 3]
+    return world[..., 2], world[..., 0]
+
+
+def test_a_shadow_whose_mask_reaches_up_the_wall_behind_is_no_object():
+    """A "chair" the detector takes a shadow on the floor for, its mask reaching up the wall
+    1.6 m behind: enough of the mask lies above the floor (on the wall), but the surface
+    the view is of, the nearest dominant range, is all floor. No observation (counted as on
+    the floor); before, it was a chair at floor height, kept pass after pass."""
+    walls, grid = empty_world()
+    _, col = grid.world_to_cell(4.2, 0.0)
+    walls[:, int(col):int(col) + 4] = True  # a wall facing the camera, 4.2 m ahead
+    frame = see([], Pose2D(0.0, 0.0, 0.0), 15.0, walls=walls, grid=grid)
+    height, x = map_heights_and_x(frame)
+    cols = np.zeros(frame.depth.shape, dtype=bool)
+    cols[:, frame.depth.shape[1] // 2 - 12:frame.depth.shape[1] // 2 + 12] = True
+    floor = cols & (height < 0.02) & (x > 2.0) & (x < 2.6)
+    wall = cols & (x > 4.1) & (height > 0.1) & (height < 0.2)
+    shadow = floor | wall
+    params = ProjectionParams()
+    stride, min_points = params.scaled(frame.shape)
+    points = backproject(frame.depth, wall, frame.K, stride)
+    assert len(points) >= min_points  # the mask's wall part alone passes the whole-mask floor test
+    assert floor.sum() > 3 * wall.sum()
+    detection = Detection("chair", (0.0, 0.0, 1.0, 1.0), 0.6, mask=shadow)
+    stats = ProjectionStats()
+    assert detections_to_observations(frame, [detection], params, stats) == []
+    assert stats.on_floor == 1
+    [on_wall] = detections_to_observations(frame, [replace(detection, mask=wall)], params)
+    assert on_wall.position[2] > 0.1  # the wall part alone is a view of something standing (the wall)
+
+
 def test_a_far_object_is_not_made_of_what_its_mask_bled_onto_in_front_of_it():
     """A cabinet 7.5 m away, its mask bled onto the bin in front of it. Beyond max_depth (6 m)
     the cabinet's own pixels are cut away; the bin's rim would be all that was left, a
