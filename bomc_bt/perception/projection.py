@@ -252,7 +252,7 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         # shadow taken for a chair, its mask reaching up the wall behind, has enough points
         # above the floor, all of them on the wall. Kept, it was a chair at floor height,
         # seen again from where the robot passed and never denied (hard preset, 36 x 28 m,
-        # seed 7752: three such nodes, kept over three passes). Of 7,300 views of true
+        # seed 7752: a chair and a sofa, kept over three passes). Of 7,300 views of true
         # objects measured, two had less than half of it above the floor, the rest 0.56 or more.
         if np.count_nonzero(kept @ T[2, :3] + T[2, 3] >= params.floor_height) < _STANDING_SHARE * len(kept):
             stats.on_floor += 1
