@@ -283,7 +283,7 @@ class ProjectionParams:
     stride: int = 2  # [count] sample every stride-th pixel in both directions (at 640 x 480)
     max_depth: float = 6.0  # [m] farther pixels are not used; a mask mostly farther is skipped (a far object)
     # [m] a view with fewer than min_points masked points above this is floor, and so is one whose
-    # own surface (the nearest range cluster) has less than half of its points above it
+    # own surface (the nearest range cluster) has less than half of its points above it (0: that test off)
     floor_height: float = 0.05
     fov_columns: int = 64  # [count] image columns sampled for the field-of-view polygon
     # [m] a node farther from the camera is not expected to be detected (robust mode): far

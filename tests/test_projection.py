@@ -336,6 +336,7 @@ def test_a_shadow_whose_mask_reaches_up_the_wall_behind_is_no_object():
     stats = ProjectionStats()
     assert detections_to_observations(frame, [detection], params, stats) == []
     assert stats.on_floor == 1
+    assert len(detections_to_observations(frame, [detection], ProjectionParams(floor_height=0.0))) == 1  # off
     [on_wall] = detections_to_observations(frame, [replace(detection, mask=wall)], params)
     assert on_wall.position[2] > 0.1  # the wall part alone is a view of something standing (the wall)
 
