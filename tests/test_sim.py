@@ -401,3 +401,38 @@ def test_clear_costmaps_empties_the_obstacle_layer_and_the_lidar_refills_it():
     robot.step()
     robot.step()
     assert layer.mask.sum() >= 0.5 * marked  # the obstacle is still there: the lidar marks it again
+
+
+
+def _doorway_world(width: float, depth: float = 0.1) -> World:
+    """A 10 x 4 m room split at x = 5 m by a wall ``depth`` thick with a doorway of ``width``
+    centred at y = 2 m."""
+    data = room_data(10.0, 4.0)
+    block(data, 5.0, 5.0 + depth, 0.0, 2.0 - width / 2)
+    block(data, 5.0, 5.0 + depth, 2.0 + width / 2, 4.0)
+    return make_world(data, Pose2D(4.0, 2.0, 0.0))
+
+
+@pytest.mark.parametrize(("width", "depth", "off_axis_deg"), [(0.55, 0.1, 6.0), (0.58, 0.4, 9.0)])
+def test_a_base_a_few_degrees_off_a_tight_doorways_axis_is_deflected_through_it(width, depth, off_axis_deg):
+    """A doorway 0.07-0.1 m wider than the 0.48 m body, driven at straight ahead but a few
+    degrees off its axis: the jamb deflects the base along it and it gets through, as a round
+    base does. Refused steps pushed it back off the jamb and it was driven in again, for
+    ever (hospital: a doorway in a dotted wall, the build ended "stuck")."""
+    robot = SimRobot(_doorway_world(width, depth), 1, SimParams(), seed=0)
+    yaw = math.radians(off_axis_deg)
+    robot._true = Pose2D(4.4, 2.0 - 0.6 * math.tan(yaw), yaw)  # crossing the doorway's axis at its mouth
+    for _ in range(60):  # 0.06 m a step: 3.6 m if nothing stood in the way
+        robot._move(0.6, 0.0, 0.1)
+    assert robot.true_pose.x > 5.0 + depth + 0.3, robot.true_pose
+
+def test_a_base_driven_head_on_into_a_wall_stops_at_it():
+    """Deflection is for glancing contact only: driven square at the wall beside the doorway,
+    the base never gets closer to the wall than its radius, let alone through it."""
+    robot = SimRobot(_doorway_world(0.58), 1, SimParams(), seed=0)
+    robot._true = Pose2D(4.4, 1.0, 0.0)
+    closest = -math.inf
+    for _ in range(40):
+        robot._move(0.6, 0.0, 0.1)
+        closest = max(closest, robot.true_pose.x)
+    assert 4.6 < closest <= 5.0 - SimParams().motion.body_radius + 1e-9, closest

@@ -3,7 +3,8 @@
 One :class:`SimRobot` simulates one session of a world. :meth:`SimRobot.step` advances
 the simulated clock by ``dt`` and, in order: applies the session's ``during`` changes that
 are due, moves people, lets the navigator choose a velocity, moves the robot (unicycle
-kinematics; a translation that would collide with the true scene or a person is refused),
+kinematics; a translation into the true scene is deflected along it or refused, into a person refused:
+:mod:`bomc_bt.sim.contact`),
 updates the localization error, and keeps the map (build) or the obstacle layer
 (monitor) current from the lidar.
 
@@ -33,6 +34,7 @@ from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import LaserScan, RequestHandle, RGBDFrame, Status
 from bomc_bt.sim.clock import SimClock
+from bomc_bt.sim.contact import allowed, slide_along, slide_out
 from bomc_bt.sim.faults import PERSON_RADIUS, People
 from bomc_bt.sim.frame import SimFrame
 from bomc_bt.sim.lidar import Lidar
@@ -201,7 +203,8 @@ class SimRobot:
         restore_robot(self, state)
 
     def _move(self, v: float, w: float, dt: float) -> None:
-        """Unicycle step on the true pose; translations into anything solid are refused."""
+        """Unicycle step on the true pose; a translation into anything solid is deflected
+        along it at a glancing angle and refused otherwise (:mod:`bomc_bt.sim.contact`)."""
         t = self._true
         yaw = wrap_angle(t.yaw + w * dt)
         mid = t.yaw + 0.5 * w * dt
@@ -214,32 +217,15 @@ class SimRobot:
             if self.people.blocks(np.array([x, y]), radius):  # a person in the way: stop, wait
                 x, y = t.x, t.y
                 self._stuck = True
-            elif after < radius and after <= before:
-                x, y = self._slide_out(t, radius)
-                self._stuck = True
+            elif not allowed(before, after, radius):  # contact: deflected, or stopped (sim/contact.py)
+                along = slide_along(self.scene, self.people, t, x, y, radius)
+                if along is not None:
+                    x, y = along
+                else:
+                    x, y = slide_out(self.scene, self.people, t, radius)
+                    self._stuck = True
         self.distance_travelled += math.hypot(x - t.x, y - t.y)
         self._true = Pose2D(x, y, yaw)
-
-    def _slide_out(self, t: Pose2D, radius: float) -> tuple[float, float]:
-        """Contact resolution: a base pressed against something slides a little away from it.
-
-        Without it a robot wedged in a spot tighter than its body (a half-seen doorway, a
-        chair leg) could refuse every forward and backward step for ever; a real base's
-        bumper pushes it off instead. The step is one cell of the collision map, to the
-        neighbouring point of most clearance: clearance is read per cell, so a shorter
-        step lands on the same value and a wedged robot (between a chair and a pillar,
-        both its forward and its backward step refused) never moved (hospital, issue 16).
-        A person is not pushed: a step onto one is no way out (people wait for the robot, the
-        base never slides into them; it did, and its lidar then saw nothing but the person).
-        """
-        c = self.scene.clearance
-        step = self.scene.grid.resolution
-        angles = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
-        xs, ys = t.x + step * np.cos(angles), t.y + step * np.sin(angles)
-        room = [-math.inf if self.people.blocks(np.array([x, y]), radius) else c(float(x), float(y))
-                for x, y in zip(xs, ys, strict=True)]
-        best = int(np.argmax(room))
-        return (float(xs[best]), float(ys[best])) if room[best] > c(t.x, t.y) else (t.x, t.y)
 
     # -- sensing and maps ------------------------------------------------------------------
     def _take_scan(self) -> None:
