@@ -33,7 +33,7 @@ def slide_along(scene: Scene, people: People, t: Pose2D, x: float, y: float,
     surface touched, or None when there is none worth taking.
 
     A round base that grazes a jamb is deflected along it, not stopped. Refusing the whole
-    step left a robot threading a gap 0.05 m wider than its body a few degrees off the
+    step left a robot threading a gap 0.08 m wider than its body a few degrees off the
     gap's axis refused at every step, pushed back, driven in again, until the goal was given
     up (hospital, a doorway in a dotted wall: the build ended "stuck"). The step loses its
     component into the surface (the clearance's gradient over one cell each side); what is
