@@ -24,8 +24,12 @@ import numpy as np
 import pytest
 
 from bomc_bt.exploration.coverage import map_coverage
+from bomc_bt.exploration.decision_cache import DecisionCache
 from bomc_bt.exploration.dwfe import ExplorationParams
 from bomc_bt.exploration.explorer import DONE, Explorer
+from bomc_bt.exploration.frontiers import find_frontiers
+from bomc_bt.exploration.gain import Standoffs
+from bomc_bt.exploration.reachability import Reachability
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map, save_map
 from bomc_bt.planner import GridPlanner, PlannerParams
@@ -211,3 +215,52 @@ def test_a_robot_whose_only_frontier_is_at_its_feet_turns_round_once_instead_of_
     assert goal.looks_at[0] > robot[0] + 0.9  # facing east: the way its back faced
     again = ex.next_goal(grid, (0.95, 1.4), 1.0, robot_yaw=yaw)  # the turn showed nothing: no second turn
     assert again is None and ex.status == DONE
+
+
+def building_and_strip_behind_its_wall() -> np.ndarray:
+    """A 7.8 x 11.8 m building (x 0.1-7.9) whose east wall (x 7.9-8.0) has one 1.2 m
+    opening (y 0.4-1.6), and behind it a 0.7 m strip (x 8.0-8.7) up to the map's edge: the
+    floor a SLAM map draws outside a building when its unknown grey reads as free."""
+    data = np.full((cell(12.0), cell(8.8)), OCCUPIED, np.int8)
+    data[cell(0.1):cell(11.9), cell(0.1):cell(7.9)] = FREE
+    data[cell(0.1):cell(11.9), cell(8.0):cell(8.7)] = FREE
+    data[cell(0.4):cell(1.6), cell(7.9):cell(8.0)] = FREE
+    return data
+
+
+def strip_cells(data: np.ndarray) -> np.ndarray:
+    mask = np.zeros(data.shape, bool)
+    mask[cell(0.1):cell(11.9), cell(8.0):cell(8.7)] = True
+    return mask
+
+
+def test_a_frontier_in_a_strip_behind_a_wall_is_looked_at_from_the_strip_not_through_the_wall():
+    """The lidar saw the strip through the opening up to y = 3 m. The nearest cell 0.35 m
+    from every wall (the standoff's clearance) lies in the building, 0.8 m away through the
+    wall: from there the view into the strip was nothing, below min_gain, and the strip was
+    never a goal (hospital: 3-7 objects per world stood in such strips, never seen)."""
+    data = building_and_strip_behind_its_wall()
+    data[cell(3.0):cell(11.9), cell(8.0):cell(8.7)] = UNKNOWN
+    grid = OccupancyGrid(data, RES, (0.0, 0.0))
+    robot = (6.0, 2.0)
+    reach = Reachability(grid, PlannerParams(robot_radius=0.25), robot)
+    frontier = next(f for f in find_frontiers(grid, robot, 1) if f.centroid[0] > 8.0 and f.centroid[1] > 2.5)
+    cache = DecisionCache(0.35, 1.0, 6.0)
+    cache.update(grid, reach)
+    for got in (cache.standoff(frontier), Standoffs(grid, reach, 0.35, 1.0).goal(frontier)):
+        assert got is None or got[0][0] > 7.95, got  # in the strip (or none: the frontier's own cell)
+    ex = Explorer(ExplorationParams(), 0.0, clearance=0.35, planner=PlannerParams())
+    goal = ex.next_goal(grid, robot, 0.0)
+    assert goal is not None and goal.xy[0] > 7.95 and goal.xy[1] > 2.0, (ex.status, ex.reason, goal)
+
+
+def test_a_build_maps_the_strip_behind_the_buildings_wall(tmp_path):
+    """Before: "done" at the remaining-gain rule with 31 % of the strip mapped, the view into it
+    from the standoff through the wall counted as 0.00 m²."""
+    world = write_world(tmp_path, building_and_strip_behind_its_wall(), (2.0, 6.0, 0.0))
+    site = tmp_path / "site"
+    result = run_build(world, site, seed=0, max_time=900.0, quiet=True)
+    saved = load_map(site / "map.yaml")
+    strip = strip_cells(building_and_strip_behind_its_wall())
+    mapped = np.count_nonzero((saved.data == FREE) & strip) / np.count_nonzero(strip)
+    assert mapped > 0.8, (result.summary["termination"], result.summary["reason"], mapped)

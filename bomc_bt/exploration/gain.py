@@ -4,7 +4,7 @@ Three measurements the ``gain`` explorer (:mod:`.choice`) ranks frontiers with:
 
 * **Safe standoff** (:class:`Standoffs`): the goal sent to navigation is a cell of the
   planner's reachable area at least ``clearance`` metres from every occupied *and every
-  unknown* cell, as near the frontier as possible. Measured on generated offices, every
+  unknown* cell, as near the frontier as possible and in sight of it. Measured on generated offices, every
   failed exploration goal was "goal is inside an obstacle" (issue 16): a goal on the
   frontier itself, or one only ``clearance`` from known walls, lies next to unknown
   space; when the lidar revealed a wall or a chair there, the goal fell inside the
@@ -34,6 +34,7 @@ import numpy as np
 
 from bomc_bt.exploration.frontiers import Frontier
 from bomc_bt.exploration.reachability import Reachability
+from bomc_bt.exploration.standoff_window import nearest_in_sight
 from bomc_bt.grid import OccupancyGrid
 
 _SQRT2 = math.sqrt(2.0)
@@ -45,7 +46,8 @@ class Standoffs:
     def __init__(self, grid: OccupancyGrid, reach: Reachability, clearance: float, max_standoff: float):
         self.grid = grid
         self.max_standoff = max_standoff
-        blocked = grid.occupied_mask() | grid.unknown_mask()
+        self.occupied = grid.occupied_mask()
+        blocked = self.occupied | grid.unknown_mask()
         room = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_5)
         room = room * grid.resolution - 0.5 * grid.resolution
         f = reach.factor
@@ -65,7 +67,8 @@ class Standoffs:
 
     def goal(self, frontier: Frontier) -> tuple[tuple[float, float], tuple[float, float]] | None:
         """(goal, anchor): the safe cell nearest the frontier cell closest to its centroid
-        among those that have one within ``max_standoff``; None when no cell has."""
+        among those that have one within ``max_standoff`` in sight (:func:`.standoff_window.nearest_in_sight`);
+        None when no cell has."""
         if not self.any:
             return None
         rows, cols = frontier.cells[:, 0], frontier.cells[:, 1]
@@ -74,10 +77,12 @@ class Standoffs:
             return None
         rows, cols = rows[ok], cols[ok]
         xs, ys = self.grid.cell_to_world(rows, cols)
-        cx, cy = frontier.centroid
-        i = int(np.argmin((xs - cx) ** 2 + (ys - cy) ** 2))
-        flat = int(self.nearest_flat[rows[i], cols[i]])
-        gx, gy = self.grid.cell_to_world(flat // self.grid.width, flat % self.grid.width)
+        flat = self.nearest_flat[rows, cols]
+        i = nearest_in_sight(self.occupied, rows, cols, flat // self.grid.width, flat % self.grid.width,
+                             (xs, ys), frontier.centroid)
+        if i is None:
+            return None
+        gx, gy = self.grid.cell_to_world(flat[i] // self.grid.width, flat[i] % self.grid.width)
         return (float(gx), float(gy)), (float(xs[i]), float(ys[i]))
 
 

@@ -21,7 +21,9 @@ standoff, plus 2 cells):
   cells from a cut edge (a value that differs is at least that long, so both pass);
 * the nearest safe cell within ``max_standoff`` is the same for the frontier's cells,
   which lie ``room + near`` cells inside the window: its chain is shorter than ``near``,
-  and safe cells wrongly set in the outer ``room`` band are farther than that.
+  and safe cells wrongly set in the outer ``room`` band are farther than that;
+* the sight line from a frontier cell to its safe cell (:func:`nearest_in_sight`) is
+  shorter than ``max_standoff``, so it lies inside the window.
 """
 
 from __future__ import annotations
@@ -62,15 +64,51 @@ def window_standoff(grid: OccupancyGrid, component: np.ndarray, factor: int, cle
     if not ok.any():
         return None
     rows, cols = rows[ok], cols[ok]
-    xs, ys = grid.cell_to_world(rows + r0, cols + c0)
-    cx, cy = frontier.centroid
-    i = int(np.argmin((xs - cx) ** 2 + (ys - cy) ** 2))
     srows, scols = np.nonzero(safe)
     index = np.zeros(int(labels.max()) + 1, dtype=np.int64)
     index[labels[srows, scols]] = np.arange(srows.size)
-    k = index[labels[rows[i], cols[i]]]
-    gx, gy = grid.cell_to_world(srows[k] + r0, scols[k] + c0)
-    return (float(gx), float(gy)), (float(xs[i]), float(ys[i]))
+    k = index[labels[rows, cols]]
+    i = nearest_in_sight(sub >= 50, rows, cols, srows[k], scols[k], grid.cell_to_world(rows + r0, cols + c0),
+                         frontier.centroid)
+    if i is None:
+        return None
+    gx, gy = grid.cell_to_world(srows[k[i]] + r0, scols[k[i]] + c0)
+    xs, ys = grid.cell_to_world(rows[i] + r0, cols[i] + c0)
+    return (float(gx), float(gy)), (float(xs), float(ys))
+
+
+def nearest_in_sight(occupied: np.ndarray, rows: np.ndarray, cols: np.ndarray, goal_rows: np.ndarray,
+                     goal_cols: np.ndarray, cell_xy: tuple[np.ndarray, np.ndarray],
+                     centroid: tuple[float, float]) -> int | None:
+    """Of the frontier cells (``rows``, ``cols``, at ``cell_xy`` in the world), the one
+    nearest ``centroid`` whose safe cell (``goal_rows``, ``goal_cols``) sees it: no occupied
+    cell on the straight line between them. None when no cell's does.
+
+    The nearest safe cell is nearest in a straight line, through walls. A frontier in a
+    strip narrower than the robot's standoff clearance (the 0.7 m strip between a building
+    and the map's edge) has its nearest safe cell in the room on the other side of the
+    wall: the lidar sees nothing of the strip from there, the view's gain is a sliver, and
+    the strip was never explored (docs/exploration.md 7.16). Without a safe cell in sight
+    the frontier falls back to its own cell (:func:`.explorer.frontier_target`).
+    """
+    sees = in_sight(occupied, rows, cols, goal_rows, goal_cols)
+    if not sees.any():
+        return None
+    xs, ys = cell_xy
+    d2 = (xs - centroid[0]) ** 2 + (ys - centroid[1]) ** 2
+    return int(np.argmin(np.where(sees, d2, np.inf)))
+
+
+def in_sight(occupied: np.ndarray, rows: np.ndarray, cols: np.ndarray, rows_b: np.ndarray,
+             cols_b: np.ndarray) -> np.ndarray:
+    """Bool per pair of cells: no occupied cell on the straight line between them (sampled
+    every quarter cell)."""
+    span = np.maximum(np.abs(rows_b - rows), np.abs(cols_b - cols))
+    steps = int(4 * span.max()) + 1 if span.size else 1
+    t = np.linspace(0.0, 1.0, steps + 1)[None, :]
+    r = np.floor(rows[:, None] + t * (rows_b - rows)[:, None] + 0.5).astype(np.int64)
+    c = np.floor(cols[:, None] + t * (cols_b - cols)[:, None] + 0.5).astype(np.int64)
+    return ~occupied[r, c].any(axis=1)
 
 
 def _on_component(component: np.ndarray, factor: int, r0: int, r1: int, c0: int, c1: int) -> np.ndarray:
