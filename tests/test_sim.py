@@ -436,3 +436,19 @@ def test_a_base_driven_head_on_into_a_wall_stops_at_it():
         robot._move(0.6, 0.0, 0.1)
         closest = max(closest, robot.true_pose.x)
     assert 4.6 < closest <= 5.0 - SimParams().motion.body_radius + 1e-9, closest
+
+
+@pytest.mark.parametrize("off_axis_deg", [8.0, 12.0, -15.0])
+def test_a_base_in_a_doorway_one_collision_cell_wider_than_its_body_is_turned_along_it(off_axis_deg):
+    """Inside a 0.4 m deep doorway of 0.55 m (0.07 m wider than the body) the base fits in
+    one collision cell across: the clearance is the same on both sides, so there is no
+    gradient to slide along, and a step a few degrees off the axis was refused at every try
+    (hospital, seed-57 world: the base cutting the corner beyond a 0.58 m doorway, the build
+    ended "stuck"). The jambs turn it along the doorway."""
+    robot = SimRobot(_doorway_world(0.55, 0.4), 1, SimParams(), seed=0)
+    lane = [y for y in np.arange(1.8, 2.2, 0.005) if robot.scene.clearance(5.2, y) >= SimParams().motion.body_radius]
+    assert 0 < max(lane) - min(lane) <= 0.05  # one collision cell
+    robot._true = Pose2D(5.1, float(np.mean(lane)), math.radians(off_axis_deg))
+    for _ in range(40):  # 0.06 m a step
+        robot._move(0.6, 0.0, 0.1)
+    assert robot.true_pose.x > 5.5 + 0.3, robot.true_pose

@@ -4,7 +4,9 @@ The simulator refuses a translation that takes the base's body (a disc of
 ``motion.body_radius``) closer to anything solid than that radius, unless it moves away.
 Refusing is not all a real base does, so a refused step is resolved here, in this order:
 
-* a glancing contact is deflected along the surface (:func:`slide_along`);
+* a glancing contact is deflected along the surface (:func:`slide_along`), or, where the
+  clearance has no gradient to slide along (a lane one collision cell wide), turned by the
+  least angle that lets it go on;
 * anything else stops the base, which a bumper pushes off one collision cell
   (:func:`slide_out`), so a base wedged tighter than its body is never held for ever.
 
@@ -45,7 +47,7 @@ def slide_along(scene: Scene, people: People, t: Pose2D, x: float, y: float,
     gy = c(t.x, t.y + h) - c(t.x, t.y - h)
     norm = math.hypot(gx, gy)
     if norm == 0.0:
-        return None
+        return _turned_step(scene, people, t, x, y, radius)
     dx, dy = x - t.x, y - t.y
     into = (dx * gx + dy * gy) / norm
     if into >= 0.0:
@@ -57,6 +59,35 @@ def slide_along(scene: Scene, people: People, t: Pose2D, x: float, y: float,
     if people.blocks(np.array([nx, ny]), radius) or not allowed(c(t.x, t.y), c(nx, ny), radius):
         return None
     return nx, ny
+
+
+def _turned_step(scene: Scene, people: People, t: Pose2D, x: float, y: float,
+                 radius: float) -> tuple[float, float] | None:
+    """The step from ``t`` to (x, y) turned by the least angle (up to 60 degrees, in 7.5
+    degree steps) that makes it allowed, shortened to its projection on the new direction;
+    None when no turn does.
+
+    In a lane one collision cell wide (a doorway 0.06-0.1 m wider than the body) the
+    clearance is the same on both sides of the base, so it has no gradient to slide along,
+    and a step a few degrees off the lane's axis was refused at every try: pure pursuit
+    cutting the corner beyond a 0.58 m doorway held the base there for good (hospital,
+    seed-57 world, the build ended "stuck"). A round base there is turned by the jambs.
+    """
+    c = scene.clearance
+    before = c(t.x, t.y)
+    dx, dy = x - t.x, y - t.y
+    for k in range(1, 9):
+        turn = math.radians(7.5 * k)
+        options = []
+        for sign in (1.0, -1.0):
+            ca, sa = math.cos(sign * turn), math.sin(sign * turn)
+            nx, ny = t.x + ca * (ca * dx - sa * dy), t.y + ca * (sa * dx + ca * dy)
+            if not people.blocks(np.array([nx, ny]), radius) and allowed(before, c(nx, ny), radius):
+                options.append((c(nx, ny), nx, ny))
+        if options:
+            _, nx, ny = max(options)
+            return nx, ny
+    return None
 
 
 def slide_out(scene: Scene, people: People, t: Pose2D, radius: float) -> tuple[float, float]:
