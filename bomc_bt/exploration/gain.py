@@ -4,11 +4,11 @@ Three measurements the ``gain`` explorer (:mod:`.choice`) ranks frontiers with:
 
 * **Safe standoff** (:class:`Standoffs`): the goal sent to navigation is a cell of the
   planner's reachable area at least ``clearance`` metres from every occupied *and every
-  unknown* cell, as near the frontier as possible and in sight of it. Measured on generated offices, every
-  failed exploration goal was "goal is inside an obstacle" (issue 16): a goal on the
-  frontier itself, or one only ``clearance`` from known walls, lies next to unknown
-  space; when the lidar revealed a wall or a chair there, the goal fell inside the
-  planner's lethal zone and failed (75 of 100 failures on a 50 x 45 m office, median
+  unknown* cell, as near the frontier as possible and in sight of it. Measured on
+  generated offices, every failed exploration goal was "goal is inside an obstacle"
+  (issue 16): a goal on the frontier itself, or one only ``clearance`` from known walls,
+  lies next to unknown space; when the lidar revealed a wall or a chair there, the goal
+  fell inside the planner's lethal zone and failed (75 of 100 failures on a 50 x 45 m office, median
   1.6 m from it), or the planner's coarser clearance already refused it (the other 25).
   A goal kept ``clearance`` from the unknown cannot be invalidated by what the unknown
   hides, and the lidar (25 m) sees into the unknown from there just as well.
@@ -67,8 +67,8 @@ class Standoffs:
 
     def goal(self, frontier: Frontier) -> tuple[tuple[float, float], tuple[float, float]] | None:
         """(goal, anchor): the safe cell nearest the frontier cell closest to its centroid
-        among those that have one within ``max_standoff`` in sight (:func:`.standoff_window.nearest_in_sight`);
-        None when no cell has."""
+        among those that have one within ``max_standoff`` in sight
+        (:func:`.standoff_window.nearest_in_sight`); None when no cell has."""
         if not self.any:
             return None
         rows, cols = frontier.cells[:, 0], frontier.cells[:, 1]

@@ -82,8 +82,9 @@ def _turned_step(scene: Scene, people: People, t: Pose2D, x: float, y: float,
         for sign in (1.0, -1.0):
             ca, sa = math.cos(sign * turn), math.sin(sign * turn)
             nx, ny = t.x + ca * (ca * dx - sa * dy), t.y + ca * (sa * dx + ca * dy)
-            if not people.blocks(np.array([nx, ny]), radius) and allowed(before, c(nx, ny), radius):
-                options.append((c(nx, ny), nx, ny))
+            after = c(nx, ny)
+            if not people.blocks(np.array([nx, ny]), radius) and allowed(before, after, radius):
+                options.append((after, nx, ny))
         if options:
             _, nx, ny = max(options)
             return nx, ny
