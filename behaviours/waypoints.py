@@ -16,7 +16,7 @@ from py_trees.common import Status
 
 from bomc_bt.budget_pass import budget_spent, next_within_budget
 from bomc_bt.budget_plan import leg_length
-from bomc_bt.monitor_pass import DetourFinder, DetourParams, pass_exhausted, save_pass
+from bomc_bt.monitor_pass import DetourFinder, DetourParams, miss_stop, pass_exhausted, save_pass
 from bomc_bt.monitoring import DETOURED, MISSED, VISITED
 from bomc_bt.planner import GridPlanner
 from bomc_bt.tree.leaf import Leaf
@@ -119,7 +119,9 @@ class MarkWaypoint(Leaf):
     """Records how the current waypoint ended and saves the pass's progress.
 
     A waypoint marked visited that ``NavigateTo`` reached by a detour (``nav_detour``:
-    around something the map does not have) is recorded as detoured.
+    around something the map does not have) is recorded as detoured. A waypoint marked
+    missed takes the rest of its stop (its other headings, at the same place) with it
+    (:func:`~bomc_bt.monitor_pass.miss_stop`).
     """
 
     Params = MarkWaypointParams
@@ -131,8 +133,13 @@ class MarkWaypoint(Leaf):
         state = self.params.state
         if state == VISITED and self.get("nav_detour", False):
             state = DETOURED
-        ctx.traverse.mark(i, state)
+        others: list[int] = []
+        if state == MISSED:
+            others = miss_stop(ctx.traverse, i)
+        else:
+            ctx.traverse.mark(i, state)
         save_pass(ctx.store, ctx.session, ctx.traverse, ctx.perception)
         ctx.progress.waypoint = ctx.traverse.done_count
-        self.feedback_message = f"waypoint {i + 1} {state}"
+        self.feedback_message = f"waypoint {i + 1} {state}" + (
+            f", and its stop's {len(others)} other heading(s) with it" if others else "")
         return Status.SUCCESS

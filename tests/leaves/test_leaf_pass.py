@@ -284,3 +284,34 @@ def test_look_around_halted_cancels_its_turn(ctx, robot):
 def test_look_around_without_a_pose_has_nothing_to_do(ctx, robot):
     robot.place(None)
     assert tick(look_around(ctx)) == Status.SUCCESS and robot.goals == []
+
+
+def test_a_stop_the_robot_cannot_get_to_is_missed_with_all_its_headings(ctx):
+    # one stop facing three ways (three waypoints at one place), then the next stop
+    state = start_pass(ctx, (6, 6), (6, 6), (6, 6), (9, 6))
+    done, next_ = WaypointsDone("Done", None, ctx), NextWaypoint("Next", None, ctx)
+    mark_missed = MarkWaypoint("Mark Missed", MarkWaypointParams(MISSED), ctx)
+    assert tick(next_) == Status.SUCCESS and (key("goal").x, key("goal").y) == (6, 6)
+    assert tick(mark_missed) == Status.SUCCESS
+    assert "2 other heading" in mark_missed.feedback_message
+    assert state.states[:3] == [MISSED, MISSED, MISSED]
+    assert tick(next_) == Status.SUCCESS and (key("goal").x, key("goal").y) == (9, 6)  # no drive to (6, 6) twice more
+    tick(MarkWaypoint("Mark Visited", MarkWaypointParams(VISITED), ctx))
+    # the stop comes back once at the end; its first heading missed again ends it for good
+    assert tick(done) == Status.FAILURE and tick(next_) == Status.SUCCESS and state.current == 0
+    tick(mark_missed)
+    assert tick(done) == Status.SUCCESS
+    assert ctx.store.get_progress(progress_key(ctx.session))["states"] == [MISSED, MISSED, MISSED, VISITED]
+
+
+def test_a_stop_reached_on_its_second_chance_faces_its_other_headings_too(ctx):
+    state = start_pass(ctx, (6, 6), (6, 6), (9, 6))
+    next_ = NextWaypoint("Next", None, ctx)
+    tick(next_)
+    tick(MarkWaypoint("Mark Missed", MarkWaypointParams(MISSED), ctx))
+    tick(next_)
+    tick(MarkWaypoint("Mark Visited", MarkWaypointParams(VISITED), ctx))
+    tick(next_)  # the end of the loop: the stop's first heading again
+    assert state.current == 0
+    tick(MarkWaypoint("Mark Visited", MarkWaypointParams(VISITED), ctx))
+    assert tick(next_) == Status.SUCCESS and state.current == 1  # then its other heading
