@@ -316,3 +316,27 @@ def test_a_table_seen_cut_off_at_one_end_then_whole_end_on_at_the_other_stays_on
     assert list(second.nodes) == [saved.id], [np.round(v.position, 2).tolist() for v in second.nodes.values()]
     assert abs(second.nodes[saved.id].position[0]) < 0.2  # the table's middle, not its west end's
     assert [e.kind for e in events if e.kind != "updated"] == []
+
+
+def test_a_chair_begun_from_cut_off_views_does_not_take_the_chair_beside_it():
+    """Chairs are known small here (three seen whole, 0.5 m). Chair A at a table is seen
+    only cut off, then chair B, 0.8 m beside it, only cut off too: its views lie 0.66 m from
+    A's node, within delta_c. A's footprint holds no whole view, but both boxes together
+    are 1.2 m long, longer than any chair showed: B is a chair of its own, and A's node
+    stays on A (36 x 28 m office, static, seed 6613: A was never mapped, its node followed
+    B's views while its footprint stayed on A's floor, and the next pass doubled B)."""
+    graph = ObjectGraph(AssociationParams())
+    t = 0.0
+    for x in (10.0, 12.0, 14.0):
+        for _ in range(2):
+            graph.associate([view("chair", x, x + 0.5)], [], 1, t)
+            t += 1.0
+    for _ in range(3):  # chair A (y -0.25 to 0.25), cut off past the table
+        graph.associate([view("chair", -0.25, 0.25, truncated=True, y0=-0.25, y1=0.45)], [], 1, t)
+        t += 1.0
+    for _ in range(4):  # chair B (y 0.55 to 1.05), cut off past the table
+        graph.associate([view("chair", -0.25, 0.25, truncated=True, y0=0.57, y1=0.95)], [], 1, t)
+        t += 1.0
+    near = sorted((v for v in graph.nodes.values() if v.position[0] < 5.0), key=lambda v: v.position[1])
+    assert len(near) == 2, [np.round(v.position, 2).tolist() for v in near]
+    assert near[0].position[1] < 0.2 and near[1].position[1] > 0.7

@@ -171,7 +171,7 @@ class RobustPolicy:
                                        boxes, self.params.footprint_overlap)
         out = []
         for o, g, (ids, d2) in zip(obs, gates, near, strict=True):
-            keep = [not self.extents.separate(graph.nodes[int(i)], o)
+            keep = [not self.extents.separate(graph, graph.nodes[int(i)], o)
                     and not self.tentative.claims(o, int(i), float(np.sqrt(d)), g, stamp)
                     for i, d in zip(ids, d2, strict=True)]
             out.append((ids, d2) if all(keep) else (ids[keep], d2[keep]))
@@ -213,8 +213,9 @@ class RobustPolicy:
             covered |= self._hidden_beside(graph, matched_node, stood, o, hidden, session)
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
-                if v is None or other is None or oid == vid or oid in matched or self.extents.separate(other, o) \
-                        or self.extents.apart(v, other, before[vid][0]) or self.co_observed.seen_apart(vid, oid):
+                if v is None or other is None or oid == vid or oid in matched \
+                        or self.extents.separate(graph, other, o) or self.extents.apart(v, other, before[vid][0]) \
+                        or self.co_observed.seen_apart(vid, oid):
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
