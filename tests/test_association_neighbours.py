@@ -340,3 +340,25 @@ def test_a_chair_begun_from_cut_off_views_does_not_take_the_chair_beside_it():
     near = sorted((v for v in graph.nodes.values() if v.position[0] < 5.0), key=lambda v: v.position[1])
     assert len(near) == 2, [np.round(v.position, 2).tolist() for v in near]
     assert near[0].position[1] < 0.2 and near[1].position[1] > 0.7
+
+
+def test_a_chair_seen_whole_from_the_front_does_not_keep_a_footprint_caught_over_the_chair_behind_it():
+    """Chairs are known small here (three seen whole, 0.65 m at an angle). Chair B's edge,
+    caught cut off, starts a node; then chair A, 0.48 m in front of it, is seen whole from the
+    front: a box 0.5 m across and 0.3 m deep, B's floor beyond it along the line of sight.
+    A table's hidden length lies there; a chair's does not: the footprint starts over from
+    A's view instead of spanning both chairs (Environment-A-size floor, seed 9911)."""
+    graph = ObjectGraph(AssociationParams())
+    t = 0.0
+    for x in (10.0, 12.0, 14.0):
+        for _ in range(2):
+            graph.associate([view("chair", x, x + 0.65)], [], 1, t)
+            t += 1.0
+    for _ in range(2):
+        graph.associate([view("chair", 0.55, 0.8, truncated=True)], [], 1, t)
+        t += 1.0
+    for _ in range(4):
+        graph.associate([view("chair", 0.05, 0.35)], list(graph.nodes), 1, t)
+        t += 1.0
+    (node,) = [v for v in graph.nodes.values() if v.position[0] < 5.0]
+    assert node.footprint[2] <= 0.45, node.footprint  # not over chair B's floor
