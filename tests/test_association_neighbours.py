@@ -318,6 +318,17 @@ def test_a_table_seen_cut_off_at_one_end_then_whole_end_on_at_the_other_stays_on
     assert [e.kind for e in events if e.kind != "updated"] == []
 
 
+def _chairs_seen_whole(graph: ObjectGraph, length: float) -> float:
+    """Three chairs ``length`` long seen whole, far from the origin (the category known
+    small); the next stamp."""
+    t = 0.0
+    for x in (10.0, 12.0, 14.0):
+        for _ in range(2):
+            graph.associate([view("chair", x, x + length)], [], 1, t)
+            t += 1.0
+    return t
+
+
 def test_a_chair_begun_from_cut_off_views_does_not_take_the_chair_beside_it():
     """Chairs are known small here (three seen whole, 0.5 m). Chair A at a table is seen
     only cut off, then chair B, 0.8 m beside it, only cut off too: its views lie 0.66 m from
@@ -326,11 +337,7 @@ def test_a_chair_begun_from_cut_off_views_does_not_take_the_chair_beside_it():
     stays on A (36 x 28 m office, static, seed 6613: A was never mapped, its node followed
     B's views while its footprint stayed on A's floor, and the next pass doubled B)."""
     graph = ObjectGraph(AssociationParams())
-    t = 0.0
-    for x in (10.0, 12.0, 14.0):
-        for _ in range(2):
-            graph.associate([view("chair", x, x + 0.5)], [], 1, t)
-            t += 1.0
+    t = _chairs_seen_whole(graph, 0.5)
     for _ in range(3):  # chair A (y -0.25 to 0.25), cut off past the table
         graph.associate([view("chair", -0.25, 0.25, truncated=True, y0=-0.25, y1=0.45)], [], 1, t)
         t += 1.0
@@ -349,11 +356,7 @@ def test_a_chair_seen_whole_from_the_front_does_not_keep_a_footprint_caught_over
     A table's hidden length lies there; a chair's does not: the footprint starts over from
     A's view instead of spanning both chairs (Environment-A-size floor, seed 9911)."""
     graph = ObjectGraph(AssociationParams())
-    t = 0.0
-    for x in (10.0, 12.0, 14.0):
-        for _ in range(2):
-            graph.associate([view("chair", x, x + 0.65)], [], 1, t)
-            t += 1.0
+    t = _chairs_seen_whole(graph, 0.65)
     for _ in range(2):
         graph.associate([view("chair", 0.55, 0.8, truncated=True)], [], 1, t)
         t += 1.0
