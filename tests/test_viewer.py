@@ -609,12 +609,16 @@ def test_bomc_view_stops_on_a_ctrl_c_the_kernel_hands_to_its_server_thread(tmp_p
     rescued = []
 
     def interrupt_the_server_thread() -> None:
-        while not servers or servers[0]._thread is None:
-            time.sleep(0.01)
-        signal.pthread_kill(servers[0]._thread.ident, signal.SIGINT)
-        if not returned.wait(5.0):  # still waiting: end it from the main thread, and fail
-            rescued.append(True)
-            signal.pthread_kill(main, signal.SIGINT)
+        # the server sets its thread before starting it: wait until it runs (a thread not yet
+        # started has no ident, and the failed kill left the test asleep for good under load)
+        try:
+            while not servers or servers[0]._thread is None or servers[0]._thread.ident is None:
+                time.sleep(0.01)
+            signal.pthread_kill(servers[0]._thread.ident, signal.SIGINT)
+        finally:
+            if not returned.wait(5.0):  # still waiting: end it from the main thread, and fail
+                rescued.append(True)
+                signal.pthread_kill(main, signal.SIGINT)
 
     helper = threading.Thread(target=interrupt_the_server_thread, daemon=True)
     helper.start()
