@@ -213,9 +213,8 @@ class RobustPolicy:
             covered |= self._hidden_beside(graph, matched_node, stood, o, hidden, session)
             for oid in sorted(covered):
                 v, other = graph.nodes.get(vid), graph.nodes.get(oid)
-                if v is None or other is None or oid == vid or oid in matched \
-                        or self.extents.separate(graph, other, o) or self.extents.apart(v, other, before[vid][0]) \
-                        or self.co_observed.seen_apart(vid, oid):
+                if v is None or other is None or oid == vid or oid in matched or self.co_observed.seen_apart(vid, oid) \
+                        or self.extents.separate(graph, other, o) or self.extents.apart(v, other, before[vid][0]):
                     continue
                 keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
                 total = max(keep.observations + drop.observations, 1)
