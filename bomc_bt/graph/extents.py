@@ -233,7 +233,9 @@ class NodeExtents:
         this whole view lies beyond them, the footprint starts over from the view: the node's
         position follows its views, and a footprint left at a neighbour's place made the next
         pass take this object's views for another (a chair first caught at the image edge
-        over its neighbour, then seen whole: issue 17, Environment-A-size floor, seed 9911).
+        over its neighbour, then seen whole: issue 17, Environment-A-size floor, seed 9911),
+        unless the cut-off views lie along the whole view's line of sight and the category
+        is not known to be small: a table's far end past an end-on view (:meth:`_along_sight`).
         """
         graph.widen_gate(v, gate)
         if self.boxes and o.box is not None:
