@@ -272,9 +272,7 @@ class NodeExtents:
         is a box 0.5 m wide and 0.3 m deep, and a footprint caught over the chair behind it
         is then also along the line of sight (Environment-A-size floor, seed 9911: one
         chair's footprint grew over the chair 0.8 m behind it)."""
-        whole = _sides(o.box)
-        shown = whole >= _ACROSS_SHARE * whole.max()
-        return not bool((shown & (_sides(grown) > whole + BIG_MARGIN)).any())
+        return not _longer_where_shown(_sides(o.box), grown)
 
     def touched_node(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """The big same-category node whose footprint a truncated view lies against, if any.
@@ -359,10 +357,7 @@ class NodeExtents:
         loaded from the store may be one whose end no pass has seen yet, and still grows."""
         whole = self._whole_view.get(v.id)
         grown = union(v.footprint, box)
-        if whole is None or grown is None:
-            return False
-        shown = whole >= _ACROSS_SHARE * whole.max()
-        return bool((shown & (_sides(grown) > whole + BIG_MARGIN)).any())
+        return whole is not None and grown is not None and _longer_where_shown(whole, grown)
 
     def overlapped(self, graph: ObjectGraph, o: Observation) -> list[int]:
         """Ids of same-category nodes whose footprint shares ``footprint_overlap`` of the
@@ -382,3 +377,11 @@ class NodeExtents:
 def _sides(box: np.ndarray) -> np.ndarray:
     """The floor box's x and y extents."""
     return np.array([box[2] - box[0], box[3] - box[1]], dtype=float)
+
+
+def _longer_where_shown(whole: np.ndarray, box: np.ndarray) -> bool:
+    """Whether ``box`` is longer (plus ``BIG_MARGIN``) than a whole view's x, y extents
+    ``whole`` along a side that view shows in full: at least ``_ACROSS_SHARE`` of its longer
+    side (across the line of sight; along it, the object may go on unseen)."""
+    shown = whole >= _ACROSS_SHARE * whole.max()
+    return bool((shown & (_sides(box) > whole + BIG_MARGIN)).any())
