@@ -9,8 +9,10 @@ waits for those messages too, so it sees the same map, tf and move_base results 
 direct simulator run at that time (topics are not ordered with respect to ``/clock`` or
 to each other). A real robot announces no steps, and nothing waits here then.
 
-Wall time only bounds the waits: an announced message that never comes is a warning, and
-is not waited for again, not a hang.
+Wall time only bounds the waits (``lockstep_wait``): an announced message that never comes
+is a warning, not a hang, and its topic is not waited for again until one of its messages
+does come in. A topic that was only late (a loaded machine) is then waited for as before,
+so the ticks after it see its messages again instead of running ahead of them.
 """
 
 from __future__ import annotations
@@ -22,8 +24,6 @@ from collections.abc import Callable
 from typing import Any
 
 from bomc_bt.ros.params import RosParams
-
-SYNC_WAIT = 2.0  # wall s a lockstep tick waits for announced messages before going on without
 
 
 class LockstepClient:
@@ -68,6 +68,7 @@ class LockstepClient:
             stamp = stamp_of(msg)
             with self._arrived:
                 self._received[name] = max(self._received.get(name, -1), stamp)
+                self._unsynced.discard(name)  # it is connected after all: wait for it again
                 self._arrived.notify_all()
 
         return self.rospy.Subscriber(topic, msg_type, tracked, **kwargs)
@@ -81,6 +82,7 @@ class LockstepClient:
         data = json.loads(msg.data)
         with self._arrived:
             self._stepped = data  # one publisher, in order: the last one is the newest
+            self._unsynced.discard(self.params.stepped)
             self._arrived.notify_all()
 
     # -- time --------------------------------------------------------------------------------
@@ -106,24 +108,26 @@ class LockstepClient:
     def sync(self, target: float, awaits_result: Callable[[str], bool]) -> None:
         """Wait until everything the bridge published up to ``target`` is here.
 
-        Bounded by ``SYNC_WAIT`` wall seconds; what did not come in time is not waited for
-        again (a topic this robot is not connected to), with a warning, so a mismatch costs
-        one wait, not one per tick. ``awaits_result(goal_id)`` says whether a move_base
-        result is still owed to one of this executive's goals.
+        Bounded by ``lockstep_wait`` wall seconds; what did not come in time is not waited
+        for again until a message of it arrives (a topic this robot is not connected to), with
+        a warning, so a mismatch costs one wait, not one per tick. ``awaits_result(goal_id)``
+        says whether a move_base result is still owed to one of this executive's goals.
         """
         if self._stepped is None or self.params.stepped in self._unsynced:
             return  # no bridge announces steps (a real robot, a free-running bridge)
-        deadline = time.monotonic() + SYNC_WAIT
+        wait = self.params.lockstep_wait
+        deadline = time.monotonic() + wait
         while missing := self._missing(target, awaits_result):
             if self.rospy.is_shutdown():
                 from bomc_bt.errors import MissionFailed
 
                 raise MissionFailed("ROS shut down")
             if time.monotonic() > deadline:
-                self._unsynced |= missing
+                with self._arrived:
+                    self._unsynced |= missing
                 self.rospy.logwarn(
-                    f"bomc: {', '.join(sorted(missing))} not received within {SYNC_WAIT:.0f} s of the bridge's "
-                    f"step to {target:.2f} s; no longer waited for"
+                    f"bomc: {', '.join(sorted(missing))} not received within {wait:g} s of the bridge's "
+                    f"step to {target:.2f} s; not waited for until one comes (ros.lockstep_wait)"
                 )
                 return
             with self._arrived:  # woken by a tracked message; tf (tf2's own callback) is polled

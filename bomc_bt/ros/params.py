@@ -20,6 +20,9 @@ class RosParams:
     # -- time --------------------------------------------------------------------------
     tick_rate: float = 10.0  # [Hz] tree ticks per second of ROS time
     clock_timeout: float = 10.0  # [s] wall time: ROS time that stops advancing this long is an error
+    # [s] wall time a lockstep tick waits for a message the sim bridge announced before going on
+    # without it (and not waiting for that topic again until one of its messages comes in)
+    lockstep_wait: float = 10.0
     # -- maps, scans, localization -------------------------------------------------------
     map_topic: str = "/map"  # [text] the map (nav_msgs/OccupancyGrid)
     scan_topic: str = "/base_scan"  # [text] the base laser (sensor_msgs/LaserScan)
@@ -87,6 +90,7 @@ class RosParams:
         positive = (
             "tick_rate",
             "clock_timeout",
+            "lockstep_wait",
             "relocalize_timeout",
             "server_timeout",
             "goal_ack_timeout",
