@@ -105,3 +105,44 @@ def test_the_paper_mode_takes_nothing_back():
     g = ObjectGraph(AssociationParams(mode="paper"), [Node(0, "chair", np.array([*OLD, 0.45]), 0.9, 1, 1)])
     history = [g.report("moved", g.nodes[0], 2, 10.0, np.array([*NEIGHBOUR, 0.45]))]
     assert g.take_back_moves(2, 40.0, history) == []
+
+
+# -- a move given to the nearer removal ---------------------------------------------------
+FIRST, SECOND = (0.0, 0.0), (0.9, 0.7)  # two chairs at one table (session 1)
+PUSHED = (2.3, 0.9)  # pass 2: the second chair pushed 1.4 m along the table; the first taken away
+
+
+def two_chairs_in_session_2() -> ObjectGraph:
+    params = AssociationParams(confirm_misses=1, confirm_detections=1)
+    return ObjectGraph(params, [Node(0, "chair", np.array([*FIRST, 0.45]), 0.9, 1, 1, observations=10),
+                                Node(1, "chair", np.array([*SECOND, 0.45]), 0.9, 1, 1, observations=10)])
+
+
+def session_1_two_chairs() -> list:
+    g = ObjectGraph(AssociationParams(confirm_detections=1))
+    return g.associate([chair(*FIRST), chair(*SECOND)], [], 1, 0.0)
+
+
+def test_a_move_goes_to_the_removed_chair_that_stood_nearer_its_arrival():
+    g = two_chairs_in_session_2()
+    events = g.associate([], [0], 2, 10.0)  # the camera finds the first chair's place empty
+    events += g.associate([chair(*PUSHED)], [], 2, 11.0)  # a chair at the pushed place: the first one's id
+    events += g.associate([], [1], 2, 12.0)  # then the second chair's place empty
+    assert net(session_1_two_chairs() + events) == [("removed", 1), ("moved", 0)]  # 2.5 m, the first chair's id
+    given = g.take_back_moves(2, 40.0, events)
+    assert np.allclose(g.nodes[1].position[:2], PUSHED) and 0 not in g.nodes
+    changes = net_changes(session_1_two_chairs() + events + given, 1, lambda _c: 0.7)
+    assert [(c.kind, c.node_id) for c in changes] == [("removed", 0), ("moved", 1)]
+    removal = changes[0]
+    assert np.allclose(removal.old[:2], FIRST) and removal.missing_frames >= 1
+    assert removal.last_seen is None  # pass 2 never saw the first chair (its own removal's evidence)
+    assert g.take_back_moves(2, 41.0, events + given) == []  # once is enough
+
+
+def test_a_move_stays_with_its_node_when_the_removed_chair_stood_farther_from_its_arrival():
+    g = two_chairs_in_session_2()
+    events = g.associate([], [1], 2, 10.0)  # the second chair's place empty
+    events += g.associate([chair(1.5, 1.2)], [], 2, 11.0)  # a chair 0.8 m from it: its node moves there
+    events += g.associate([], [0], 2, 12.0)  # the first chair's place, 1.9 m from that chair, empty
+    assert net(session_1_two_chairs() + events) == [("removed", 0), ("moved", 1)]
+    assert g.take_back_moves(2, 40.0, events) == []

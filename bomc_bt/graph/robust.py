@@ -47,16 +47,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from bomc_bt.graph import pass_end
 from bomc_bt.graph.association import near_any, never_looked, sighted_before
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.confusions import confused
 from bomc_bt.graph.evidence import misses_needed
-from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
+from bomc_bt.graph.extents import NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
-from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation, bounded_height
-from bomc_bt.graph.relocations import relocation_pairs
-from bomc_bt.graph.returns import moves_taken_back
 from bomc_bt.graph.tentative import TentativeSightings
 
 if TYPE_CHECKING:
@@ -276,7 +274,7 @@ class RobustPolicy:
         if run >= needed - 1e-9 and graph.evidence.spread(v.id) >= self.params.miss_spacing:
             arrival = self._arrival(graph, v, session)
             if arrival is not None:
-                return self._moved_to(graph, v, arrival, session, stamp)
+                return self.moved_to(graph, v, arrival, session, stamp)
             return [graph.remove(v, session, stamp, retracted=v.observations <= self.params.retract_observations)]
         return []
 
@@ -294,7 +292,7 @@ class RobustPolicy:
                 and (d <= gate or not (never_looked(graph, n) or sighted_before(graph, n, v, radius)))]
         return min(near, key=lambda t: t[:2])[2] if near else None
 
-    def _moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
+    def moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
         """``v`` moved to where ``arrival`` stands: ``v`` keeps its id and takes the arrival's
         place, size and sightings; the arrival is folded into it (no change of its own)."""
         previous = v.position.copy()
@@ -310,57 +308,15 @@ class RobustPolicy:
         merged = graph.remove(arrival, session, stamp, merged_into=v.id)
         return [merged, graph.report("moved", v, session, stamp, previous)]
 
-    def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
-                         candidate: Callable[[Node], bool]) -> list[Event]:
-        """When the pass ends: each node it removed, paired with a ``candidate`` node it
-        added (:func:`~bomc_bt.graph.relocations.relocation_pairs`), moved there."""
-        events = self._join_parts(graph, session, stamp)
-        removed = [v for v in graph.removed_this_session() if v.first_session < session]
-        arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
-        for v, arrival in relocation_pairs(removed, arrivals, self.params.relocation_radius):
-            events.extend(self._moved_to(graph, v, arrival, session, stamp))
-        return events
-
     def take_back_moves(self, graph: ObjectGraph, session: int, stamp: float,
                         history: Sequence[Event]) -> list[Event]:
-        """When the pass ends: each of its moves that a node added later at the old place
-        undoes (:mod:`~bomc_bt.graph.returns`; ``history``: the pass's events so far) is
-        taken back. The moved node goes back to its old place, where the late node stands;
-        the late node (and the sightings of the arrival the move had folded in) takes the
-        moved-to place."""
-        events: list[Event] = []
-        for m in moves_taken_back(history, graph.nodes, session, self.params.distance):
-            back, late = m.moved, m.late
-            went, stood = back.position.copy(), late.position.copy()
-            graph.relocate(back, stood)
-            graph.relocate(late, went)
-            if self.extents.boxes:
-                self.extents.swap(graph, back, late)
-            carried = min(m.arrival_observations, back.observations - 1)
-            graph.add_observations(back, -carried)
-            graph.add_observations(late, carried)
-            events.append(graph.report("moved", back, session, stamp, went))
-            events.append(graph.report("moved", late, session, stamp, stood))
-        return events
+        """When the pass ends: moves undone or given to a nearer removal (:mod:`~bomc_bt.graph.pass_end`)."""
+        return pass_end.take_back_moves(self, graph, session, stamp, history)
 
-    def _join_parts(self, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:
-        """When the pass ends: two nodes it saw that are the two ends of one object
-        (:func:`~bomc_bt.graph.parts.part_pairs`) become one, in the middle."""
-        if not self.extents.boxes or not self.params.separate_neighbours:
-            return []
-        seen, events = [v for v in graph.nodes.values() if v.last_session == session], []
-        reference = reference_lengths(seen, self.extents.longest_whole(graph), self.params.distance, BIG_MARGIN)
-        big = {c for c, length in reference.items() if length > self.params.distance(c) + BIG_MARGIN}
-        touch = self.params.footprint_touch
-        for a, b in part_pairs(seen, reference, BIG_MARGIN, self.co_observed.seen_apart, big, touch):
-            keep, drop = (a, b) if (a.observations, -a.id) >= (b.observations, -b.id) else (b, a)
-            self.extents.join(graph, keep, drop)
-            graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
-            graph.add_observations(keep, drop.observations)
-            graph.set_confidence(keep, max(keep.confidence, drop.confidence))
-            events.append(graph.remove(drop, session, stamp, merged_into=keep.id))
-            events.append(graph.report("updated", keep, session, stamp))
-        return events
+    def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
+                         candidate: Callable[[Node], bool]) -> list[Event]:
+        """When the pass ends: parts joined, removals paired with additions (:mod:`~bomc_bt.graph.pass_end`)."""
+        return pass_end.pair_relocations(self, graph, session, stamp, candidate)
 
     def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
         """Consecutive counted misses that remove ``v`` (:func:`~bomc_bt.graph.evidence.misses_needed`

@@ -1,0 +1,118 @@
+"""What the robust policy decides when a pass ends, with the whole pass in view.
+
+During a pass each frame is associated as it comes (:mod:`bomc_bt.graph.robust`), so a
+decision can only use what the camera has shown so far. When the pass ends (the Pair
+Relocations leaf, ``trees/monitor.yaml``) every removal, addition and move of the pass is
+known at once, and four stories are told again where the whole pass tells them better, in
+this order:
+
+1. a move that a node added later at the old place undoes is taken back
+   (:func:`~bomc_bt.graph.returns.moves_taken_back`);
+2. a move whose arrival a removed node stood nearer goes to that node
+   (:func:`~bomc_bt.graph.returns.moves_to_nearer_removals`);
+3. two nodes that are the two ends of one object become one
+   (:func:`~bomc_bt.graph.parts.part_pairs`);
+4. a removal and an addition that were one object moved become one move
+   (:func:`~bomc_bt.graph.relocations.relocation_pairs`); a node that step 2 removed is
+   a candidate like any other.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bomc_bt.graph.extents import BIG_MARGIN
+from bomc_bt.graph.parts import part_pairs, reference_lengths
+from bomc_bt.graph.records import Event, Node
+from bomc_bt.graph.relocations import relocation_pairs
+from bomc_bt.graph.returns import moves_taken_back, moves_to_nearer_removals
+
+if TYPE_CHECKING:
+    from bomc_bt.graph.object_graph import ObjectGraph
+    from bomc_bt.graph.robust import RobustPolicy
+
+
+def take_back_moves(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float,
+                    history: Sequence[Event]) -> list[Event]:
+    """Steps 1 and 2 (``history``: the pass's events so far).
+
+    1: the moved node goes back to its old place, where the late node stands; the late node
+    (and the sightings of the arrival the move had folded in) takes the moved-to place.
+    2: the removed node comes back where the moved node stands, with its footprint; the
+    moved node goes back to where it stood and is removed in its place."""
+    events: list[Event] = []
+    for m in moves_taken_back(history, graph.nodes, session, policy.params.distance):
+        back, late = m.moved, m.late
+        went, stood = back.position.copy(), late.position.copy()
+        graph.relocate(back, stood)
+        graph.relocate(late, went)
+        if policy.extents.boxes:
+            policy.extents.swap(graph, back, late)
+        carried = min(m.arrival_observations, back.observations - 1)
+        graph.add_observations(back, -carried)
+        graph.add_observations(late, carried)
+        events.append(graph.report("moved", back, session, stamp, went))
+        events.append(graph.report("moved", late, session, stamp, stood))
+    removed = [v for v in graph.removed_this_session() if v.first_session < session]
+    history = [*history, *events]
+    for g in moves_to_nearer_removals(history, graph.nodes, removed, session, policy.params.move_radius):
+        events.extend(_give_move(policy, graph, g.moved, g.removed, g.origin, session, stamp, history))
+    return events
+
+
+def _give_move(policy: RobustPolicy, graph: ObjectGraph, moved: Node, removed: Node, origin: np.ndarray,
+               session: int, stamp: float, history: Sequence[Event]) -> list[Event]:
+    """``removed`` moved to where ``moved`` stands (taking its footprint and latest sighting);
+    ``moved`` goes back to ``origin`` and is removed. Its evidence: the misses and last
+    sighting of its own removal earlier in the pass (before the arrival revived it), else
+    the misses that removed the other node."""
+    arrived, stood = moved.position.copy(), removed.position.copy()
+    own = [e for e in history if e.session == session and e.node_id == moved.id and e.kind == "removed"
+           and not (e.detail or {}).get("merged")]
+    evidence = own[-1].detail if own else {"misses": removed.misses}
+    graph.restore(removed, arrived)
+    if policy.extents.boxes:
+        policy.extents.adopt(graph, removed, moved)
+    graph.set_confidence(removed, max(removed.confidence, moved.confidence))
+    graph.touch(removed, session, moved.last_seen if moved.last_seen is not None else stamp)
+    graph.relocate(moved, origin)
+    back = graph.report("moved", moved, session, stamp, arrived)
+    moved.misses = max(int(evidence.get("misses", 1)), 1)
+    if own:  # the arrival's sighting is the other node's now
+        moved.last_seen = evidence.get("seen")
+    return [graph.report("moved", removed, session, stamp, stood), back, graph.remove(moved, session, stamp)]
+
+
+def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float,
+                     candidate: Callable[[Node], bool]) -> list[Event]:
+    """Steps 3 and 4: each node the pass removed, paired with a ``candidate`` node it added,
+    moved there."""
+    events = _join_parts(policy, graph, session, stamp)
+    removed = [v for v in graph.removed_this_session() if v.first_session < session]
+    arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
+    for v, arrival in relocation_pairs(removed, arrivals, policy.params.relocation_radius):
+        events.extend(policy.moved_to(graph, v, arrival, session, stamp))
+    return events
+
+
+def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:
+    """Two nodes the pass saw that are the two ends of one object become one, in the middle."""
+    if not policy.extents.boxes or not policy.params.separate_neighbours:
+        return []
+    seen, events = [v for v in graph.nodes.values() if v.last_session == session], []
+    extents = policy.extents
+    reference = reference_lengths(seen, extents.longest_whole(graph), policy.params.distance, BIG_MARGIN)
+    big = {c for c, length in reference.items() if length > policy.params.distance(c) + BIG_MARGIN}
+    touch = policy.params.footprint_touch
+    for a, b in part_pairs(seen, reference, BIG_MARGIN, policy.co_observed.seen_apart, big, touch):
+        keep, drop = (a, b) if (a.observations, -a.id) >= (b.observations, -b.id) else (b, a)
+        extents.join(graph, keep, drop)
+        graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
+        graph.add_observations(keep, drop.observations)
+        graph.set_confidence(keep, max(keep.confidence, drop.confidence))
+        events.append(graph.remove(drop, session, stamp, merged_into=keep.id))
+        events.append(graph.report("updated", keep, session, stamp))
+    return events
