@@ -24,18 +24,6 @@ map, never as a move of the chair beside it.
 
 What this costs: a real move whose old place a new object of the same kind takes in the
 same pass, after the robot saw the move, is reported as one addition where the move was.
-
-**A move given to the nearer removal** (:func:`moves_to_nearer_removals`). Two chairs at
-one table, one taken away and the other pushed 1.7 m along it: the camera confirms the
-first chair's absence, then sees a chair at the new place and gives it the first chair's id
-(a removed node within ``move_radius``), then confirms the second chair's absence. The pass
-says "chair 1 moved 2.4 m, chair 2 removed" where the truth is "chair 2 moved 1.7 m, chair
-1 removed" (Environment-A-size floor, seed 6868, pass 2: two wrong changes and two missed
-for one). Which node took the arrival was the order the camera came by. When the pass ends
-both absences are known, and both stories explain every frame alike; the one with less
-motion is taken: a node moved in this pass gives its arrival to a node of its category
-removed in this pass whose old place is nearer that arrival than the moved node's own old
-place (and within ``move_radius``), and goes back to its old place, removed.
 """
 
 from __future__ import annotations
@@ -96,45 +84,6 @@ def moves_taken_back(history: Sequence[Event], nodes: Mapping[int, Node], sessio
         used.update((nid, lid))
         out.append(MoveTakenBack(nodes[nid], nodes[lid], np.asarray(events[i].previous, dtype=float),
                                  _arrival_observations(events, nid, events[i].stamp)))
-    return sorted(out, key=lambda m: m.moved.id)
-
-
-@dataclass(frozen=True)
-class MoveGiven:
-    """``moved`` went from ``origin`` to where it stands; ``removed`` stood nearer there."""
-
-    moved: Node
-    removed: Node
-    origin: np.ndarray  # (3,) where ``moved`` stood before its move
-
-
-def moves_to_nearer_removals(history: Sequence[Event], nodes: Mapping[int, Node], removed: Sequence[Node],
-                             session: int, radius: float) -> list[MoveGiven]:
-    """The moves of ``session`` (its events in ``history``; ``nodes``: the present nodes)
-    whose arrival a node of ``removed`` (this pass's removals of older nodes) stood nearer
-    than the moved node's old place, within ``radius``: nearest first, each node once."""
-    events = [e for e in history if e.session == session]
-    origin: dict[int, np.ndarray] = {}  # where each node moved in the pass stood before its first move
-    for e in events:
-        if e.kind == "moved" and e.previous is not None:
-            origin.setdefault(int(e.node_id), np.asarray(e.previous, dtype=float))
-    candidates: list[tuple[float, int, int]] = []  # (distance, moved id, removed id)
-    for nid, start in origin.items():
-        moved = nodes.get(nid)
-        if moved is None:
-            continue
-        went = _floor_distance(moved.position, start)
-        for v in removed:
-            d = _floor_distance(v.position, moved.position)
-            if v.category == moved.category and v.id != nid and d <= radius and d < went:
-                candidates.append((d, nid, v.id))
-    by_id = {v.id: v for v in removed}
-    out: list[MoveGiven] = []
-    used: set[int] = set()
-    for _, nid, rid in sorted(candidates):
-        if nid not in used and rid not in used:
-            used.update((nid, rid))
-            out.append(MoveGiven(nodes[nid], by_id[rid], origin[nid]))
     return sorted(out, key=lambda m: m.moved.id)
 
 

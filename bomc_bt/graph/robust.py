@@ -310,7 +310,7 @@ class RobustPolicy:
 
     def take_back_moves(self, graph: ObjectGraph, session: int, stamp: float,
                         history: Sequence[Event]) -> list[Event]:
-        """When the pass ends: moves undone or given to a nearer removal (:mod:`~bomc_bt.graph.pass_end`)."""
+        """When the pass ends: moves a neighbour found late undoes, taken back (:mod:`~bomc_bt.graph.pass_end`)."""
         return pass_end.take_back_moves(self, graph, session, stamp, history)
 
     def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
