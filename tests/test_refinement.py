@@ -20,9 +20,11 @@ def table_view(x0: float, x1: float) -> Observation:
                        box=np.array([x0, -0.4, x1, 0.4]))
 
 
-def pass_2(node: Node, views: list[Observation]) -> tuple[ObjectGraph, list[Event]]:
-    """Pass 2 over the pass-1 graph: the table matched in each frame, then the pass's end."""
+def pass_2(node: Node, views: list[Observation], gate: float = 0.0) -> tuple[ObjectGraph, list[Event]]:
+    """Pass 2 over the pass-1 graph (``gate``: the node's own, as pass 1 widened it): the
+    table matched in each frame, then the pass's end."""
     graph = ObjectGraph(AssociationParams(), [node])
+    graph.widen_gate(node, gate)
     events = [Event("added", 0, "table", node.position.copy(), 1, 5.0)]
     for i, o in enumerate(views):
         events += graph.associate([o], [0], 2, 10.0 + i)
@@ -75,3 +77,34 @@ def test_a_resumed_pass_still_knows_where_its_nodes_started():
                                                    footprint=node.footprint.copy())])
     fresh.begin(2, [])
     assert fresh.mark_refinements(2, 20.0) == []  # without the saved start it cannot tell
+
+
+def view(box: tuple[float, float, float, float], centroid: tuple[float, float], truncated: bool) -> Observation:
+    x0, y0, x1, y1 = box
+    return Observation("table", np.array([*centroid, 0.4]), 0.85, 4000, 0.5 * max(x1 - x0, y1 - y0),
+                       box=np.array(box), truncated=truncated)
+
+
+def test_a_table_whose_footprint_restarts_on_its_other_end_is_no_move_while_its_old_end_is_still_seen():
+    # Environment-A-size floor, seed 6868, pass 2 (table-55, 1.6 x 0.8 m, here from x 0 to
+    # 1.6): pass 1 left the node on the east half. Pass 2 saw the west end whole end-on
+    # first (the footprint starts over there), then the east end cut off by chairs: views
+    # of the same table on the floor the pass began with, too long to join to the west end.
+    node = Node(0, "table", np.array([1.22, 0.14, 0.4]), 0.9, 1, 1, observations=9,
+                footprint=np.array([0.84, -0.46, 1.61, 0.74]))
+    views = [view((-0.14, -0.48, 0.38, 0.47), (0.54, -0.01), truncated=False),
+             view((-0.15, -0.45, 0.41, 0.45), (0.36, 0.0), truncated=True),
+             view((1.01, -0.33, 1.60, 0.48), (0.88, 0.05), truncated=True),
+             view((1.08, -0.45, 1.60, 0.34), (0.87, -0.03), truncated=True)]
+    graph, events = pass_2(node, views, gate=1.18)  # pass 1 saw the east half 0.79 m long
+    assert list(graph.nodes) == [0] and graph.nodes[0].position[0] < 0.5  # the node ends on the west end, 1.1 m from where it began
+    assert [e.node_id for e in events if (e.detail or {}).get(REFINED_FROM) is not None] == [0]
+    assert net_changes(events, 1, lambda _c: 1.0) == []
+
+    # the same table pushed 1.1 m east: what the pass sees of it on the old floor (its west
+    # end, now at 1.1-1.6) lies in the footprint it ends with, and the move is reported
+    node = Node(0, "table", np.array([0.8, 0.0, 0.4]), 0.9, 1, 1, observations=9,
+                footprint=np.array([0.0, -0.4, 1.6, 0.4]))
+    graph, events = pass_2(node, [view((1.1, -0.4, 2.7, 0.4), (1.9, 0.0), truncated=False),
+                                  view((1.1, -0.4, 1.6, 0.4), (1.35, 0.0), truncated=True)], gate=1.18)
+    assert [c.kind for c in net_changes(events, 1, lambda _c: 1.0)] == ["moved"]

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bomc_bt.graph.footprints import NOISE_PAD, box_gap, half_diagonal, inside, longest_side, overlapping, union
+from bomc_bt.graph.footprints import NOISE_PAD, box_gap, half_diagonal, inside, longest_side, overlapping, sides, union
 from bomc_bt.graph.parts import FOOTPRINT_RANK, footprint_length
 from bomc_bt.graph.records import AssociationParams, Node, Observation
 
@@ -52,6 +52,7 @@ class NodeExtents:
         # nodes whose footprint holds only views cut off by an occluder or the image border
         # (a footprint loaded from the store counts as whole: a pass saw most objects whole)
         self._partial: set[int] = set()
+        self._on_start: dict[int, np.ndarray] = {}  # node id: its views this pass on the floor it began with
 
     def reach(self, o: Observation) -> float:
         """How far from ``o`` a node whose size makes it the same object may lie."""
@@ -134,10 +135,10 @@ class NodeExtents:
     def longest_whole(self, graph: ObjectGraph) -> dict[str, float]:
         """Per category: the longest side of a whole view of any of its nodes this pass."""
         out: dict[str, float] = {}
-        for node_id, sides in self._whole_view.items():
+        for node_id, extent in self._whole_view.items():
             v = graph.nodes.get(node_id)
             if v is not None:
-                out[v.category] = max(out.get(v.category, 0.0), float(sides.max()))
+                out[v.category] = max(out.get(v.category, 0.0), float(extent.max()))
         return out
 
     def join(self, graph: ObjectGraph, keep: Node, drop: Node) -> None:
@@ -184,19 +185,22 @@ class NodeExtents:
         self._longest_view.pop(v.id, None)
         self._whole_view.pop(v.id, None)
         if o.box is not None and not o.truncated:
-            self._saw_whole(v.id, _sides(o.box))
+            self._saw_whole(v.id, sides(o.box))
         self._mark(v.id, not o.truncated)
 
     def to_json(self) -> dict:
-        """What a resumed pass needs: longest views, longest whole views, partial footprints (JSON-able)."""
+        """What a resumed pass needs: longest views, longest whole views, partial footprints,
+        views on the footprints the pass began with (JSON-able)."""
         return {"longest": {str(i): x for i, x in self._longest_view.items()}, "partial": sorted(self._partial),
-                "whole": {str(i): x.tolist() for i, x in self._whole_view.items()}}
+                "whole": {str(i): x.tolist() for i, x in self._whole_view.items()},
+                "on_start": {str(i): x.tolist() for i, x in self._on_start.items()}}
 
     def restore(self, data: dict) -> None:
         """Put back what :meth:`to_json` saved."""
         self._longest_view = {int(k): float(x) for k, x in data.get("longest", {}).items()}
         self._partial = {int(i) for i in data.get("partial", [])}
         self._whole_view = {int(k): np.array(x, dtype=float) for k, x in data.get("whole", {}).items()}
+        self._on_start = {int(k): np.array(x, dtype=float) for k, x in data.get("on_start", {}).items()}
 
     def _saw_whole(self, node_id: int, sides: np.ndarray) -> None:
         seen = self._whole_view.get(node_id)
@@ -245,7 +249,7 @@ class NodeExtents:
                           longest_side(o.box))
             self._longest_view[v.id] = longest
             if not o.truncated:
-                self._saw_whole(v.id, _sides(o.box))
+                self._saw_whole(v.id, sides(o.box))
             kept_whole = not restart and v.footprint is not None and v.id not in self._partial
             grown = o.box.copy() if restart else union(v.footprint, o.box)
             if restart or extend or longest_side(grown) <= longest + BIG_MARGIN:
@@ -257,6 +261,19 @@ class NodeExtents:
                     self._mark(v.id, True)
                 else:
                     self.restart(graph, v, o)  # cut-off views only, and a whole one beyond them (docstring)
+            self._note_on_start(graph, v, o.box)
+
+    def _note_on_start(self, graph: ObjectGraph, v: Node, box: np.ndarray) -> None:
+        start = graph.started.get(v.id)
+        began = start[0] if start is not None else v.footprint  # unchanged yet: as the pass found it
+        if began is not None and inside(box, began, NOISE_PAD):  # (a node new in the pass: refinements skip it)
+            self._on_start[v.id] = union(self._on_start[v.id], box) if v.id in self._on_start else box.copy()
+
+    def shown_on_start(self, graph: ObjectGraph) -> dict[int, np.ndarray]:
+        """Per older node not of a category known to be small: the box round its views this
+        pass that lay on the footprint the pass began with (:mod:`~bomc_bt.graph.refinement`)."""
+        return {i: box for i, box in self._on_start.items()
+                if i in graph.nodes and not self._small_category(graph, graph.nodes[i].category)}
 
     @staticmethod
     def _along_sight(o: Observation, grown: np.ndarray) -> bool:
@@ -272,7 +289,7 @@ class NodeExtents:
         is a box 0.5 m wide and 0.3 m deep, and a footprint caught over the chair behind it
         is then also along the line of sight (Environment-A-size floor, seed 9911: one
         chair's footprint grew over the chair 0.8 m behind it)."""
-        return not _longer_where_shown(_sides(o.box), grown)
+        return not _longer_where_shown(sides(o.box), grown)
 
     def touched_node(self, graph: ObjectGraph, o: Observation) -> Node | None:
         """The big same-category node whose footprint a truncated view lies against, if any.
@@ -374,14 +391,9 @@ class NodeExtents:
 
 
 
-def _sides(box: np.ndarray) -> np.ndarray:
-    """The floor box's x and y extents."""
-    return np.array([box[2] - box[0], box[3] - box[1]], dtype=float)
-
-
 def _longer_where_shown(whole: np.ndarray, box: np.ndarray) -> bool:
     """Whether ``box`` is longer (plus ``BIG_MARGIN``) than a whole view's x, y extents
     ``whole`` along a side that view shows in full: at least ``_ACROSS_SHARE`` of its longer
     side (across the line of sight; along it, the object may go on unseen)."""
     shown = whole >= _ACROSS_SHARE * whole.max()
-    return bool((shown & (_sides(box) > whole + BIG_MARGIN)).any())
+    return bool((shown & (sides(box) > whole + BIG_MARGIN)).any())

@@ -32,6 +32,11 @@ def union(a: np.ndarray | None, b: np.ndarray | None) -> np.ndarray | None:
     return np.array([min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])])
 
 
+def sides(box: np.ndarray) -> np.ndarray:
+    """The floor box's x and y extents."""
+    return np.array([box[2] - box[0], box[3] - box[1]], dtype=float)
+
+
 def inside(box: np.ndarray, outer: np.ndarray, pad: float) -> bool:
     """Whether ``box`` lies within ``outer`` grown by ``pad`` on every side."""
     return bool(box[0] >= outer[0] - pad and box[1] >= outer[1] - pad

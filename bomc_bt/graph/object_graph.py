@@ -211,7 +211,7 @@ class ObjectGraph:
         footprints, so marks nothing."""
         if self.params.mode == "paper":
             return []
-        return refinements(self, self.started, session, stamp, self.threshold)
+        return refinements(self, self.started, session, stamp, self.threshold, self.policy.extents.shown_on_start(self))
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.
