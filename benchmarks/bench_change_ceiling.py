@@ -19,7 +19,9 @@ exact, every removal and addition found, and identity kept where position can ke
 It prints, per floor, the mean and lowest per-session change F1 and the summed tp / fp /
 fn for each pairing radius, and the shares of true moves farther than ``move_radius``:
     python benchmarks/bench_change_ceiling.py --office 36x28:201:12 --office 93x90:301:3
-The radii compared default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
+``--per-session`` adds each session's ceiling at the configured radius, to set beside the
+change F1 per pass that ``bench_passes.py`` prints for the same world. The radii compared
+default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
 """
 
 from __future__ import annotations
@@ -72,14 +74,33 @@ def floor_rows(world_path: Path, radii: list[float], config) -> tuple[int, int, 
     far = sum(float(np.hypot(*(c.new - c.old)[:2])) > move_radius for c in moves)
     rows = []
     for radius in radii:
-        f1s, totals = [], np.zeros(3, dtype=int)
-        for k, truth in enumerate(truths, start=2):
-            result = score_changes(truth, ideal_report(truth, move_radius, radius), threshold, k, k - 1)
-            o = result.overall
-            f1s.append(o.f1 if o.f1 is not None else 1.0)
-            totals += (o.tp, o.mapped - o.tp, o.gt - o.tp)
+        f1s, totals = session_f1s(truths, move_radius, radius, threshold)
         rows.append((radius, float(np.mean(f1s)), float(np.min(f1s)), *totals.tolist()))
     return len(truths), sum(len(t) for t in truths), len(moves), far, rows
+
+
+def session_f1s(truths: list[list[ObjectChange]], move_radius: float, radius: float, threshold
+                ) -> tuple[list[float], np.ndarray]:
+    """The ideal reporter's change F1 per session (from session 2 on) and the summed tp / fp / fn."""
+    f1s, totals = [], np.zeros(3, dtype=int)
+    for k, truth in enumerate(truths, start=2):
+        o = score_changes(truth, ideal_report(truth, move_radius, radius), threshold, k, k - 1).overall
+        f1s.append(o.f1 if o.f1 is not None else 1.0)
+        totals += (o.tp, o.mapped - o.tp, o.gt - o.tp)
+    return f1s, totals
+
+
+def per_session_line(world_path: Path, config) -> str:
+    """The ceiling per session at the configured ``relocation_radius``: what a pass's change
+    F1 in ``bench_passes.py`` (same world, same session) compares with."""
+    world = load_world(world_path)
+    threshold = ObjectGraph(config.association).threshold
+    states = [{name: (o.category, np.asarray(o.position, dtype=float)) for name, o in world.ground_truth(n).items()}
+              for n in range(1, max(world.sessions, default=1) + 1)]
+    truths = [true_changes(a, b, threshold) for a, b in zip(states[:-1], states[1:], strict=True)]
+    a = config.association
+    f1s, _ = session_f1s(truths, a.move_radius, a.relocation_radius, threshold)
+    return "  per session: " + " ".join(f"{k}:{f:.3f}" for k, f in enumerate(f1s, start=2))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -87,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--office", action="append", default=[], metavar="WxH:SEED:SESSIONS",
                    help="a generated office (default: 36x28:201:12 and 93x90:301:3)")
     p.add_argument("--radius", action="append", type=float, help="pairing radius, m (repeatable; inf: unbounded)")
+    p.add_argument("--per-session", action="store_true",
+                   help="also print each session's ceiling at the configured relocation_radius")
     args = p.parse_args(argv)
     offices = args.office or ["36x28:201:12", "93x90:301:3"]
     radii = args.radius or [0.0, 3.0, 5.0, 8.0, 12.0, float("inf")]
@@ -105,6 +128,8 @@ def main(argv: list[str] | None = None) -> int:
             for radius, mean, low, tp, fp, fn in rows:
                 print(f"{size + ' s' + seed:16} {n_steps:>8} {n_changes:>7} {n_moves:>5} {n_far:>4} "
                       f"{radius:>8.1f} {mean:>7.3f} {low:>6.3f} {tp:>4} {fp:>4} {fn:>4}", flush=True)
+            if args.per_session:
+                print(per_session_line(path, config), flush=True)
     return 0
 
 
