@@ -97,7 +97,7 @@ def test_a_table_whose_footprint_restarts_on_its_other_end_is_no_move_while_its_
              view((1.01, -0.33, 1.60, 0.48), (0.88, 0.05), truncated=True),
              view((1.08, -0.45, 1.60, 0.34), (0.87, -0.03), truncated=True)]
     graph, events = pass_2(node, views, gate=1.18)  # pass 1 saw the east half 0.79 m long
-    assert list(graph.nodes) == [0] and graph.nodes[0].position[0] < 0.5  # the node ends on the west end, 1.1 m from where it began
+    assert list(graph.nodes) == [0] and graph.nodes[0].position[0] < 0.5  # on the west end, 1.1 m from where it began
     assert [e.node_id for e in events if (e.detail or {}).get(REFINED_FROM) is not None] == [0]
     assert net_changes(events, 1, lambda _c: 1.0) == []
 
