@@ -8,6 +8,7 @@ suite still runs on a checkout without it.
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -26,3 +27,23 @@ def require_shared(path: str | Path | None = None) -> None:
     target = Path(path) if path is not None else SHARED / "worlds"
     if not target.exists():
         pytest.skip(f"shared data not found at {target} (set BOMC_SHARED to the shared folder)")
+
+
+_TEST_WORLDS = REPO / "tests" / "worlds"
+_SHARED_MAPS = "../../../shared/maps/"  # how a test world names its map: the shared folder beside the checkout
+
+
+def local_world(stem: str) -> Path:
+    """``tests/worlds/<stem>.yaml`` with its map read from the shared folder this module
+    found (``$BOMC_SHARED`` too, not only ``shared/`` beside the checkout): a copy in a
+    temporary folder when the shared folder is elsewhere; skips when that map is missing."""
+    path = _TEST_WORLDS / f"{stem}.yaml"
+    text = path.read_text()
+    line = next(x for x in text.splitlines() if x.startswith("map:"))
+    name = line.split(_SHARED_MAPS, 1)[-1].strip()
+    require_shared(SHARED / "maps" / name)
+    if (path.parent / line[4:].strip()).resolve() == (SHARED / "maps" / name).resolve():
+        return path
+    copy = Path(tempfile.mkdtemp(prefix="bomc-test-world-")) / path.name
+    copy.write_text(text.replace(line, f"map: {SHARED / 'maps' / name}"))
+    return copy

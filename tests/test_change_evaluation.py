@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from shared_data import local_world
 
 from bomc_bt import cli, run
 from bomc_bt.change_evaluation import raw_event_counts, reported_changes, score_changes, true_changes
@@ -16,8 +17,6 @@ from bomc_bt.evaluate_changes import evaluate_changes
 from bomc_bt.graph import AssociationParams, Event, Node
 from bomc_bt.store import SiteStore
 from bomc_bt.world import load_world
-
-TESTS = Path(__file__).resolve().parent
 
 
 def d07(_category: str) -> float:
@@ -194,7 +193,7 @@ def _missed(result) -> set[tuple[str, str]]:
 
 def test_intra_session_changes_count_in_the_pass_that_was_running_when_they_happened(tmp_path):
     # small_house: session 2 moves table-1 at 75.3 s; session 3 removes trash-bin-2 (and adds chair-3) at 36 s
-    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    world = load_world(local_world("small_house"))
     config = Config()
     file_changes_2 = {("removed", "door-1"), ("moved", "chair-2"), ("added", "trash-bin-2"), ("added", "door-2")}
     file_changes_3 = {("removed", "trash-bin-1"), ("added", "cabinet-2")}
@@ -217,7 +216,7 @@ def test_a_move_during_pass_2_that_pass_3_reports_is_late_in_bomc_evaluate(tmp_p
     """small_house's table-1 moves 75.3 s into session 2. A pass 2 that ended after that and never
     saw it leaves the move to pass 3: pass 3's report is late, not a phantom; had pass 2 ended
     before the move, the same report is pass 3's true positive."""
-    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    world = load_world(local_world("small_house"))
     old, new = np.array([-1.075, 0.225, 0.375]), np.array([1.525, 4.575, 0.375])
     for site, ended, late in ((tmp_path / "late", 100.0, 1), (tmp_path / "early", 50.0, 0)):
         _site_with_sessions(site, {1: 100.0, 2: ended, 3: 100.0})
@@ -232,7 +231,7 @@ def test_a_move_during_pass_2_that_pass_3_reports_is_late_in_bomc_evaluate(tmp_p
 
 def test_an_object_the_first_pass_missed_reported_added_later_is_a_phantom_not_late(tmp_path):
     """Pass 1 is scored against the empty map: the table it missed never changed in the building."""
-    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    world = load_world(local_world("small_house"))
     _site_with_sessions(tmp_path, {1: 100.0, 2: 50.0})
     with SiteStore(tmp_path / "site.db") as store:
         at = np.array([-1.075, 0.225, 0.375])
@@ -242,7 +241,7 @@ def test_an_object_the_first_pass_missed_reported_added_later_is_a_phantom_not_l
 
 
 def test_session_1_is_scored_against_the_empty_map_and_a_skipped_session_is_spanned(tmp_path):
-    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    world = load_world(local_world("small_house"))
     _site_with_sessions(tmp_path, {1: 100.0, 3: 100.0})
     first = evaluate_changes(world, tmp_path, 1, Config())
     assert first.previous is None
@@ -255,7 +254,7 @@ def test_session_1_is_scored_against_the_empty_map_and_a_skipped_session_is_span
 
 def test_evaluate_of_an_unrecorded_session_is_one_line_and_exit_2(tmp_path, capsys):
     _site_with_sessions(tmp_path, {1: 100.0})
-    code = cli.main(["evaluate", "--world", str(TESTS / "worlds" / "small_house.yaml"), "--site", str(tmp_path),
+    code = cli.main(["evaluate", "--world", str(local_world("small_house")), "--site", str(tmp_path),
                      "--session", "2"])
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "session 2 was not recorded" in err
@@ -318,7 +317,7 @@ def _evaluate_json(world: Path, site: Path, session: int, capsys) -> str:
 
 def test_association_params_reach_the_thresholds(tmp_path):
     """The change gate is the configuration's association distance, not a constant."""
-    world = load_world(TESTS / "worlds" / "small_house.yaml")
+    world = load_world(local_world("small_house"))
     _site_with_sessions(tmp_path, {1: 100.0, 2: 100.0})
     wide = Config(association=AssociationParams(per_category={"chair": 20.0}))
     # chair-2 moved 3.1 m in session 2: a move at 0.7 m, a nudge at 20 m

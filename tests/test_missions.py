@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from built_sites import copy_site
+from shared_data import local_world
 
 from bomc_bt import run
 from bomc_bt.evaluate_site import evaluate_session
@@ -21,8 +22,6 @@ from bomc_bt.exploration.coverage import map_coverage, solid_mask
 from bomc_bt.grid import load_map
 from bomc_bt.store import SiteStore
 from bomc_bt.world import load_world
-
-TESTS = Path(__file__).resolve().parent
 
 
 def coverage_of(world_path: Path, site: Path) -> float:
@@ -46,7 +45,7 @@ OFFICE_S = pytest.mark.xdist_group("office-s")
                                    "small_house", "bookstore"])
 def test_build_covers_the_reachable_free_area(world, shared, tmp_path, request):
     shared_world = world.startswith("shared:")
-    path = shared / "worlds" / f"{world[7:]}.yaml" if shared_world else TESTS / "worlds" / f"{world}.yaml"
+    path = shared / "worlds" / f"{world[7:]}.yaml" if shared_world else local_world(world)
     if world == "shared:office-s":  # the session's one build of office-s (seed 0, default configuration)
         built = request.getfixturevalue("office_s_built")
         result, site = built["result"], built["site"]

@@ -11,7 +11,7 @@ import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from shared_data import SHARED
+from shared_data import SHARED, local_world
 from yaml_fuzz import paths_of, yaml_values
 
 from bomc_bt.errors import BomcError
@@ -20,7 +20,6 @@ from bomc_bt.world import Change, Obstacle, WorldObject, apply_change, load_worl
 from bomc_bt.worldgen import clearance_map, generate_world, reachable_free
 
 REPO = Path(__file__).resolve().parents[1]
-TEST_WORLDS = Path(__file__).resolve().parent / "worlds"
 
 
 def shared_worlds() -> list[Path]:
@@ -131,7 +130,7 @@ def test_session_below_one_is_a_clear_error():
 # -- the test worlds over real maps ----------------------------------------------------------
 @pytest.mark.parametrize("stem", ["small_house", "bookstore", "depot"])
 def test_test_worlds_over_real_maps(stem):
-    world = load_world(TEST_WORLDS / f"{stem}.yaml")
+    world = load_world(local_world(stem))
     assert world.map_path.resolve() == (SHARED / "maps" / f"{stem}.yaml").resolve()
     clear = clearance_map(reachable_free(world.grid), world.grid.resolution)
     r, c = world.grid.world_to_cell(world.start.x, world.start.y)
