@@ -620,10 +620,17 @@ def test_bomc_view_stops_on_a_ctrl_c_the_kernel_hands_to_its_server_thread(tmp_p
                 rescued.append(True)
                 signal.pthread_kill(main, signal.SIGINT)
 
+    # Ctrl-C as `bomc view` started from a terminal gets it: Python's own handler. A test run
+    # started as a background job of a script inherits SIGINT ignored (POSIX, no job control),
+    # Python keeps it so, and this test then slept in `bomc view` for good
+    found = signal.signal(signal.SIGINT, signal.default_int_handler)
     helper = threading.Thread(target=interrupt_the_server_thread, daemon=True)
     helper.start()
     started = time.monotonic()
-    code = cli._view(Namespace(site=make_site(tmp_path), port=0, no_browser=True))
+    try:
+        code = cli._view(Namespace(site=make_site(tmp_path), port=0, no_browser=True))
+    finally:
+        signal.signal(signal.SIGINT, found)
     returned.set()
     helper.join(timeout=10)
     assert code == 0 and not rescued, f"bomc view kept running {time.monotonic() - started:.1f} s after Ctrl-C"
