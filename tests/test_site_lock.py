@@ -124,6 +124,18 @@ def test_a_reader_sees_what_a_killed_writer_left_in_the_wal(monitored, tmp_path)
         writer.close()
 
 
+def _popen_taking_sigint(*args, **kwargs) -> subprocess.Popen:
+    """Popen whose child stops on SIGINT like one started from a terminal. A suite started as
+    a background job of a script has SIGINT ignored, and a child keeps an ignored signal
+    across exec (`bomc view` then ran on after the test's Ctrl-C); a handled one is reset to
+    the default there."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        return subprocess.Popen(*args, **kwargs)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _as_nobody() -> list[str] | None:
     """The command prefix that drops root to nobody, or None where that is not possible."""
     if os.geteuid() != 0:
@@ -155,8 +167,8 @@ def test_evaluate_and_view_work_on_a_site_nobody_may_write(monitored):
                                 capture_output=True, text=True, cwd=REPO, env=env, timeout=120)
         assert result.returncode == 0, result.stderr
         assert "overall" in result.stdout
-        view = subprocess.Popen(prefix + bomc_command("view", str(site), "--no-browser", "--port", "0"),
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
+        view = _popen_taking_sigint(prefix + bomc_command("view", str(site), "--no-browser", "--port", "0"),
+                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO, env=env)
         try:
             line = view.stdout.readline()
             url = re.search(r"http://\S+/", line)
