@@ -7,6 +7,7 @@ suite still runs on a checkout without it.
 
 from __future__ import annotations
 
+import functools
 import os
 import tempfile
 from pathlib import Path
@@ -44,6 +45,13 @@ def local_world(stem: str) -> Path:
     require_shared(SHARED / "maps" / name)
     if (path.parent / line[4:].strip()).resolve() == (SHARED / "maps" / name).resolve():
         return path
-    copy = Path(tempfile.mkdtemp(prefix="bomc-test-world-")) / path.name
-    copy.write_text(text.replace(line, f"map: {SHARED / 'maps' / name}"))
+    copy = Path(_copies().name) / path.name
+    if not copy.exists():
+        copy.write_text(text.replace(line, f"map: {SHARED / 'maps' / name}"))
     return copy
+
+
+@functools.cache
+def _copies() -> tempfile.TemporaryDirectory:
+    """One folder per test process for the rewritten worlds, removed when the process ends."""
+    return tempfile.TemporaryDirectory(prefix="bomc-test-worlds-")
