@@ -20,7 +20,7 @@ from bomc_bt.coverage_plan import order_stops, plan_coverage
 from bomc_bt.graph import PRESENT
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
-from bomc_bt.planner import GridPlanner
+from bomc_bt.planner import DrivenLengths, GridPlanner
 from bomc_bt.refresh import RefreshParams, object_boxes_by_id, refresh_viewpoints, sighting_looks, stale_nodes
 from bomc_bt.site import write_json
 from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
@@ -192,7 +192,7 @@ class PlanRefreshStops(PlanPhase):
         sighted = sighting_looks(ctx.graph.unconfirmed_sightings()) if self.params.unconfirmed else []
         looks = second_looks + [(n, None) for n in unresolved] + [(s, None) for s in sighted]
         grid = ctx.robot.live_map()
-        distances = GridPlanner(grid, ctx.config.sim.planner).path_lengths_from
+        distances = DrivenLengths(grid, ctx.config.sim.planner)
         budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
         boxes, ids = object_boxes_by_id(ctx.graph) if looks else (None, None)
         stops = refresh_viewpoints(grid, stale, now, ctx.traverse.reached(), pose, budget, distances, self.params,

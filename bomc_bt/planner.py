@@ -16,6 +16,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -27,7 +28,7 @@ from bomc_bt.path_smoothing import smooth_cells
 from bomc_bt.polyline import dedupe_waypoints, path_clear_of, path_length
 
 # path_clear_of and path_length live in bomc_bt.polyline; the simulator imports them from here.
-__all__ = ["GridPlanner", "PlannerParams", "path_clear_of", "path_length"]
+__all__ = ["DrivenLengths", "GridPlanner", "PlannerParams", "path_clear_of", "path_length"]
 
 _SQRT2 = math.sqrt(2.0)
 
@@ -217,6 +218,20 @@ class GridPlanner:
             self._labels = labels
         return bool(labels[a] == labels[b] and labels[a] != 0)
 
+    def shut_in(self, xy) -> bool:
+        """Whether ``xy`` (or the traversable cell a start there escapes to) lies outside this
+        planner's largest traversable component, or nowhere traversable: in a pocket its
+        clearance cannot leave, such as a room the navigator squeezed into through a doorway
+        narrower than ``robot_radius`` allows."""
+        s = self._endpoint(np.asarray(xy, dtype=float)[:2], self.params.escape_radius)
+        if s is None:
+            return True
+        if self._labels is None:
+            _, self._labels = cv2.connectedComponents((~self.lethal).astype(np.uint8), connectivity=8)
+        sizes = np.bincount(self._labels.ravel())
+        sizes[0] = 0  # the lethal cells
+        return int(self._labels[s]) != int(np.argmax(sizes))
+
     def distance(self, start_xy, goal_xy) -> float:
         """Length (m) of the planned path, inf when unreachable."""
         path = self.plan(start_xy, goal_xy)
@@ -320,3 +335,29 @@ class GridPlanner:
         """Value of a planning-grid field (e.g. from :meth:`distances_from`) at ``xy``."""
         r, c = self.cell(xy)
         return float(field[r, c]) if self._inside(r, c) else math.inf
+
+
+class DrivenLengths:
+    """Path lengths from a start as the robot drives them (a :data:`bomc_bt.refresh.DistanceField`).
+
+    On the planner's clearance, as every plan is made; but from a start the planner sees
+    shut in a pocket (:meth:`GridPlanner.shut_in`), on ``squeeze_radius``, the clearance the
+    navigator falls back on to leave it (``bomc_bt.sim.planning.SimPlanners.squeeze``).
+    Without this, a robot that ended a pass's gap viewpoints in a room it had squeezed into
+    (willow at 0.1 m: a doorway 0.56 m wide) found every place it had reached unreachable,
+    and the refresh tour planned no stop.
+    """
+
+    def __init__(self, grid: OccupancyGrid, params: PlannerParams):
+        self.planner = GridPlanner(grid, params)
+        self._grid = grid
+        self._squeeze: GridPlanner | None = None
+
+    def __call__(self, start_xy) -> Callable[[np.ndarray], np.ndarray]:
+        planner, params = self.planner, self.planner.params
+        if params.squeeze_radius < params.robot_radius and planner.shut_in(start_xy):
+            if self._squeeze is None:
+                squeezed = replace(params, robot_radius=params.squeeze_radius, allow_unknown=False)
+                self._squeeze = GridPlanner(self._grid, squeezed)
+            planner = self._squeeze
+        return planner.path_lengths_from(start_xy)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from bomc_bt.planner import GridPlanner, PlannerParams
+from bomc_bt.planner import DrivenLengths, GridPlanner, PlannerParams
 from bomc_bt.polyline import path_clear_of, path_length
 
 RES = 0.05
@@ -135,6 +135,36 @@ def test_distance_field_agrees_with_planned_lengths():
     for goal in [(8.0, 2.0), (2.0, 8.0), (8.0, 8.0)]:
         planned = planner.distance((2.0, 2.0), goal)
         assert planner.lookup(field, goal) == pytest.approx(planned, rel=0.08)
+
+
+def room_behind_a_narrow_door(door_m: float = 0.56) -> OccupancyGrid:
+    """A 10 x 10 m room split by a wall at x = 7 m with one doorway, ``door_m`` wide, at y = 5 m:
+    narrower than the default robot_radius (0.3 m) lets a plan through, not squeeze_radius (0.25 m)."""
+    data = room(10, 10)
+    block(data, 7.0, 7.1, 0.0, 5.0 - door_m / 2)
+    block(data, 7.0, 7.1, 5.0 + door_m / 2, 10.0)
+    return grid(data)
+
+
+def test_path_lengths_from_a_room_the_robot_squeezed_into_are_measured_out_through_its_door():
+    """The robot drove into the small room by squeezing (the navigator's last resort); a
+    planner with its full clearance sees it shut in, and every place the pass has reached in
+    the big room was unreachable from there. Driven lengths leave the pocket on squeeze_radius."""
+    g = room_behind_a_narrow_door()
+    planner, driven = GridPlanner(g), DrivenLengths(g, PlannerParams())
+    places = np.array([[3.0, 5.0], [2.0, 8.0], [8.5, 2.0]])
+    assert planner.shut_in((8.5, 5.0)) and not planner.shut_in((3.0, 5.0))
+    assert np.isinf(planner.path_lengths_from((8.5, 5.0))(places[:2])).all()
+    out = driven((8.5, 5.0))(places)
+    assert out[0] == pytest.approx(5.5, abs=0.2) and out[1] == pytest.approx(math.hypot(6.5, 3.0), rel=0.15)
+    assert out[2] == pytest.approx(3.0, abs=0.2)
+    # from the big room, lengths are the planner's own: the pocket stays unreachable, as plans there are
+    assert np.array_equal(driven((3.0, 5.0))(places), planner.path_lengths_from((3.0, 5.0))(places))
+    assert np.isinf(driven((3.0, 5.0))(places[2:])).all()
+    # a doorway no robot passes is no way out either, and a robot that may not squeeze never does
+    assert np.isinf(DrivenLengths(room_behind_a_narrow_door(0.4), PlannerParams())((8.5, 5.0))(places[:2])).all()
+    strict = PlannerParams(squeeze_radius=0.3)
+    assert np.isinf(DrivenLengths(g, strict)((8.5, 5.0))(places[:2])).all()
 
 
 def test_bad_parameters_are_rejected():

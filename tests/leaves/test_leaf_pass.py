@@ -138,6 +138,26 @@ def test_plan_refresh_stops_go_back_to_nodes_seen_long_ago(ctx, robot):
     assert leaf.feedback_message == "1 refresh stops for 1 stale nodes"
 
 
+def test_plan_refresh_stops_from_a_room_the_robot_squeezed_into(ctx, robot):
+    """The last gap viewpoint lay in a room behind a doorway 0.56 m wide, which the navigator
+    passes only on squeeze_radius (willow at 0.1 m, a generated world of seed 6975). From there
+    the refresh tour found every place the pass had reached unreachable and planned no stop
+    ("0 refresh stops for 27 stale nodes ..."): the objects seen once were never looked at again."""
+    robot.grid.data[:, 140:142] = 100  # a wall at x = 7 m ...
+    robot.grid.data[95:106, 140:142] = 0  # ... with a doorway 0.55 m wide at y = 5 m
+    state = start_pass(ctx, (2, 5), (5, 8), (8.5, 5))
+    for _ in range(3):
+        state.mark(state.next(), VISITED)
+    robot.place(Pose2D(8.5, 5.0, 0.0))
+    ctx.graph = stale_graph((3.0, 8.5), seen=0.0)
+    robot.advance(700.0)
+    leaf = PlanRefreshStops("Refresh", RefreshParams(stale_after=600.0, budget=0.3), ctx)
+    assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == 1
+    assert leaf.feedback_message == "1 refresh stops for 1 stale nodes"
+    stop = state.waypoint(len(state.states) - 1)
+    assert (stop.x, stop.y) in ((2, 5), (5, 8))
+
+
 def test_plan_refresh_stops_look_again_from_another_place_at_a_node_missed_from_one_spot(ctx, robot):
     """association.miss_spacing: the run of misses from (8, 5) would remove the chair but was one
     look; the refresh tour looks from elsewhere, within projection.miss_full_range (2.5 m) of
