@@ -212,11 +212,14 @@ class GridPlanner:
         One OpenCV labelling per planner answers unreachable goals at once, instead of an
         A* search that exhausts the whole component first.
         """
-        labels = self._labels
-        if labels is None:
-            _, labels = cv2.connectedComponents((~self.lethal).astype(np.uint8), connectivity=8)
-            self._labels = labels
+        labels = self._components()
         return bool(labels[a] == labels[b] and labels[a] != 0)
+
+    def _components(self) -> np.ndarray:
+        """8-connected labels of the traversable planning cells (0: lethal), computed once."""
+        if self._labels is None:
+            _, self._labels = cv2.connectedComponents((~self.lethal).astype(np.uint8), connectivity=8)
+        return self._labels
 
     def shut_in(self, xy) -> bool:
         """Whether ``xy`` (or the traversable cell a start there escapes to) lies outside this
@@ -226,11 +229,10 @@ class GridPlanner:
         s = self._endpoint(np.asarray(xy, dtype=float)[:2], self.params.escape_radius)
         if s is None:
             return True
-        if self._labels is None:
-            _, self._labels = cv2.connectedComponents((~self.lethal).astype(np.uint8), connectivity=8)
-        sizes = np.bincount(self._labels.ravel())
+        labels = self._components()
+        sizes = np.bincount(labels.ravel())
         sizes[0] = 0  # the lethal cells
-        return int(self._labels[s]) != int(np.argmax(sizes))
+        return int(labels[s]) != int(np.argmax(sizes))
 
     def distance(self, start_xy, goal_xy) -> float:
         """Length (m) of the planned path, inf when unreachable."""
