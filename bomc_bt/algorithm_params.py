@@ -9,7 +9,7 @@ a configuration needs only this module. Each field's comment gives its unit and 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 _REFERENCE_WIDTH = 640  # stride and min_points are given for a 640 x 480 image
@@ -45,6 +45,13 @@ class PlannerParams:
             raise ValueError("heuristic_weight must be >= 1")
         if self.resolution <= 0 or self.goal_tolerance < 0 or self.cost_weight < 0:
             raise ValueError("resolution must be > 0; goal_tolerance, cost_weight >= 0")
+
+    def squeezed(self) -> PlannerParams | None:
+        """The last resort's settings: ``squeeze_radius`` of clearance through known space only;
+        None when it is no narrower than ``robot_radius`` (never squeeze)."""
+        if self.squeeze_radius >= self.robot_radius:
+            return None
+        return replace(self, robot_radius=self.squeeze_radius, allow_unknown=False)
 
 
 @dataclass

@@ -132,9 +132,9 @@ class SimPlanners:
         behind it by the lidar's returns off what the map drew a cell thinner (a real
         building's SLAM map, willow at 0.1 m), and the robot stood there for the rest of the
         pass. None when ``squeeze_radius`` is no narrower than ``robot_radius``."""
-        if self.params.squeeze_radius >= self.params.robot_radius:
+        params = self.params.squeezed()
+        if params is None:
             return None
-        params = replace(self.params, robot_radius=self.params.squeeze_radius, allow_unknown=False)
         if self.map is None:
             assert self.mapper is not None
             return self._cached("squeeze", ("mapper", self.mapper.updates),

@@ -139,8 +139,8 @@ def test_plan_refresh_stops_go_back_to_nodes_seen_long_ago(ctx, robot):
 
 
 def test_plan_refresh_stops_from_a_room_the_robot_squeezed_into(ctx, robot):
-    """The last gap viewpoint lay in a room behind a doorway 0.56 m wide, which the navigator
-    passes only on squeeze_radius (willow at 0.1 m, a generated world of seed 6975). From there
+    """The last gap viewpoint lay in a room the navigator reaches only on squeeze_radius, here
+    behind a doorway 0.55 m wide (willow at 0.1 m, a world `bomc world map` made with seed 6975). From there
     the refresh tour found every place the pass had reached unreachable and planned no stop
     ("0 refresh stops for 27 stale nodes ..."): the objects seen once were never looked at again."""
     robot.grid.data[:, 140:142] = 100  # a wall at x = 7 m ...
