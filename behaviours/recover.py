@@ -13,7 +13,7 @@ no waypoint reached in between are used up. Thresholds are the configuration's
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from py_trees.common import Status
 
@@ -87,11 +87,15 @@ class DiagnoseStuck(Leaf):
         watch = watch_of(ctx)
         state = ctx.traverse
         failed = [_xy(state.waypoint(i)) for i in watch.missed]
-        remaining = [_xy(state.waypoint(i)) for i, s in enumerate(state.states) if s in (PENDING, MISSED)]
+        left = [i for i, s in enumerate(state.states) if s in (PENDING, MISSED)]
+        # After a clear in this spell, what the layer marks the lidar saw again: real obstacles.
+        layer = ctx.robot.obstacle_layer() if watch.cleared_in_spell() else None
         watch.start_round(ctx.now(), self.get("stuck") or "stuck")
         moved = watch.moved_since_first_miss(ctx.robot.distance_travelled)
-        found = diagnose(ctx.robot.live_map(), ctx.robot.pose(), ctx.robot.scan(), failed, remaining,
-                         ctx.config.recovery, ctx.config.sim.planner.robot_radius, moved)
+        found = diagnose(ctx.robot.live_map(), ctx.robot.pose(), ctx.robot.scan(), failed,
+                         [_xy(state.waypoint(i)) for i in left], ctx.config.recovery,
+                         ctx.config.sim.planner.robot_radius, moved, layer)
+        found = replace(found, cut_off=[left[k] for k in found.cut_off])  # waypoint indices from here on
         watch.log[-1].cause, watch.log[-1].detail = found.cause, found.detail
         self.set("stuck_cause", found)
         self.feedback_message = str(found)
@@ -99,7 +103,6 @@ class DiagnoseStuck(Leaf):
             watch.act("relocalize")
         if found.cause == CUT_OFF:
             watch.carry_on()
-            watch.act("none", "carried on: the robot can reach other waypoints")
         elif watch.rounds > self.params.max_rounds:
             self.feedback_message = f"{watch.rounds - 1} recovery round(s) did not help: {found}"
             return Status.FAILURE
@@ -131,6 +134,28 @@ class StuckCauseIs(Leaf):
         ok = found is not None and found.cause == self.params.cause
         self.feedback_message = f"{'yes' if ok else 'no'}: {found.cause if found else 'no diagnosis'}"
         return Status.SUCCESS if ok else Status.FAILURE
+
+
+@register("SkipCutOff")
+class SkipCutOff(Leaf):
+    """Marks missed the waypoints still to visit that the diagnosis (``stuck_cause``) found
+    behind the same obstacles as those that failed: each would fail the same way, retried
+    and detoured in turn. Missed waypoints come back once at the end of the loop, when the
+    way may be open again. Always succeeds (the pass carries on)."""
+
+    reads = ("stuck_cause",)
+
+    def update(self) -> Status:
+        ctx = self.context
+        found = self.get("stuck_cause")
+        state = ctx.traverse
+        skipped = [i for i in (found.cut_off if found else []) if state.states[i] == PENDING]
+        for i in skipped:
+            state.mark(i, MISSED)
+        watch_of(ctx).act("none", f"carried on without {len(skipped)} waypoint(s) behind the same obstacles"
+                          if skipped else "carried on: the robot can reach other waypoints")
+        self.feedback_message = f"skipped {len(skipped)} waypoint(s) behind the obstacles"
+        return Status.SUCCESS
 
 
 @dataclass

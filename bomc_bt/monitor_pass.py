@@ -58,7 +58,7 @@ def extend_pass(store, session: int, state: TraversalState, phase: str, views: l
 
 def pass_exhausted(state: TraversalState) -> bool:
     """True when :meth:`TraversalState.next` has nothing left to hand out (a pure look ahead)."""
-    if state.index < len(state.states):
+    if PENDING in state.states[state.index:]:
         return False
     return not any(s == MISSED and i not in state.retried for i, s in enumerate(state.states))
 

@@ -79,11 +79,13 @@ class TraversalState:
             self.states = [PENDING] * len(self.plan.waypoints)
 
     def next(self) -> int | None:
-        """The next waypoint to visit; missed ones come back once after the last."""
-        if self.index < len(self.states):
-            self.current = self.index
+        """The next waypoint to visit; missed ones come back once after the last. Those
+        marked before their turn (skipped behind obstacles) are passed over in order."""
+        while self.index < len(self.states):
             self.index += 1
-            return self.current
+            if self.states[self.index - 1] == PENDING:
+                self.current = self.index - 1
+                return self.current
         for i, state in enumerate(self.states):
             if state == MISSED and i not in self.retried:
                 self.retried.append(i)

@@ -157,5 +157,12 @@ class RobotPort(Protocol):
         them (move_base's ``clear_costmaps``). A pass that keeps failing waypoints clears a
         stale obstacle layer this way (:mod:`bomc_bt.stuck`)."""
 
+    def obstacle_layer(self) -> np.ndarray:
+        """(N, 2) map-frame centres of the cells navigation's obstacle layer marks now: what
+        the lidar saw since the layer was last cleared, including obstacles out of the
+        current scan's sight (a table the robot drove past). Empty when nothing is marked
+        or the robot does not tell. A pass that keeps failing waypoints after clearing the
+        layer reads it to tell real obstacles from stale ones (:mod:`bomc_bt.stuck`)."""
+
     def cancel_all(self) -> None:
         """Stop the robot: cancel navigation (Ctrl-C, abort)."""

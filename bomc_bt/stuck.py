@@ -21,7 +21,14 @@ behind the recovery subtree of ``trees/recover.yaml``:
     the robot has not moved while the waypoints failed (wedged: the way looks open, but
     every goal fails where it stands);
   - ``cut_off``: the failed waypoints lie behind such objects, but others are reachable:
-    the robot is fine, those waypoints are blocked, the pass carries on.
+    the robot is fine, those waypoints are blocked, the pass carries on without the
+    waypoints behind the same objects (:attr:`Diagnosis.cut_off`; they come back once at
+    the end of the loop).
+
+  Once this spell of failures has cleared the obstacle layer and waypoints still fail, the
+  layer as the lidar rebuilt it counts as well (``layer``): an obstacle seen again after a
+  clear is real even where the current scan cannot see it (a table moved across a corridor
+  round a corner), so the waypoints behind it are cut off, not failed for a stale layer.
 
 The tree acts on the cause (back out along :class:`bomc_bt.trail.Trail`, clear the
 obstacle layer, relocalize) and, after ``max_rounds`` rounds with no waypoint reached in
@@ -57,6 +64,7 @@ class Diagnosis:
     agreement: float  # share of scan returns on the map's walls
     reachable_area_m2: float  # floor the robot can reach past what the lidar sees
     blockers: list[tuple[float, float]] = field(default_factory=list)  # scan returns off the map, nearest first
+    cut_off: list[int] = field(default_factory=list)  # cut_off: the remaining waypoints (indices) behind them
 
     def __str__(self) -> str:
         return f"{self.cause}: {self.detail}"
@@ -64,28 +72,36 @@ class Diagnosis:
 
 def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
              failed: Sequence[tuple[float, float]], remaining: Sequence[tuple[float, float]],
-             params: RecoveryParams, robot_radius: float, moved: float | None = None) -> Diagnosis:
+             params: RecoveryParams, robot_radius: float, moved: float | None = None,
+             layer: np.ndarray | None = None) -> Diagnosis:
     """Why waypoints ``failed`` in a row, given the ``remaining`` ones (see the module docstring).
 
     ``robot_radius`` is the planner's: a way must keep that far from every obstacle.
     ``moved``: metres driven since the first of the failed waypoints (None: not known).
+    ``layer``: (N, 2) cells the navigation's obstacle layer marks, given once the layer was
+    cleared in this spell and rebuilt since: what the lidar saw again after a clear is there,
+    though out of the current scan's sight (a table round a corner). None: the scan alone.
     """
     if pose is None:
         return Diagnosis(LOST, "the robot is not localized", 0.0, 0.0)
     hits = _hits(pose, scan, params.obstacle_range)
-    on_map = surface_distance(grid) if len(hits) else None
+    marked = np.zeros((0, 2)) if layer is None else np.asarray(layer, float).reshape(-1, 2)
+    on_map = surface_distance(grid) if len(hits) or len(marked) else None
     agreement, off_map = _agreement(grid, on_map, hits, params.on_map_distance)
-    blockers = _nearest(off_map, pose, 5)
     if len(hits) and agreement < params.min_agreement:
         return Diagnosis(LOST, f"only {agreement:.0%} of the scan returns lie on the map's walls "
-                               f"at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0, blockers)
+                               f"at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0, _nearest(off_map, pose, 5))
+    marked_off = _agreement(grid, on_map, marked, params.on_map_distance)[1]
+    blockers = _nearest(np.concatenate([off_map, marked_off]), pose, 5)
     # Every return counts for the way open now, not only those off the map: a return within
     # on_map_distance of a wall the map drew thinner still narrows a doorway for navigation.
-    now = reachable_from(grid, pose, hits, robot_radius)
+    now = reachable_from(grid, pose, np.concatenate([hits, marked]), robot_radius)
     on_map_only = reachable_from(grid, pose, np.zeros((0, 2)), robot_radius)
     area = float(np.count_nonzero(now)) * grid.resolution ** 2
     where = _at(blockers)
-    what = "objects the map does not have" if blockers else "walls the lidar sees thicker than the map draws them"
+    what = ("obstacles the lidar marked again after the obstacle layer was cleared" if len(marked_off)
+            else "objects the map does not have" if blockers
+            else "walls the lidar sees thicker than the map draws them")
     if any(_inside(grid, now, xy) for xy in failed):
         if moved is not None and failed and moved < params.wedged_distance:
             return Diagnosis(BOXED_IN, f"wedged: the way looks open, but the robot moved {moved:.1f} m while "
@@ -93,10 +109,12 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
         return Diagnosis(STALE_OBSTACLES, "the map and the lidar show a way to the waypoints that failed; the "
                                           "navigation's obstacle layer holds obstacles that are gone",
                          agreement, area, blockers)
-    wanted = [xy for xy in remaining if _inside(grid, on_map_only, xy)]
-    if any(_inside(grid, now, xy) for xy in wanted):
-        return Diagnosis(CUT_OFF, f"the waypoints that failed lie behind {what}{where}; "
-                                  "the robot can reach the others", agreement, area, blockers)
+    wanted = [k for k, xy in enumerate(remaining) if _inside(grid, on_map_only, xy)]
+    behind = [k for k in wanted if not _inside(grid, now, remaining[k])]
+    if len(behind) < len(wanted):
+        return Diagnosis(CUT_OFF, f"the waypoints that failed and {len(behind)} more lie behind {what}{where}; "
+                                  f"the robot can reach the other {len(wanted) - len(behind)}",
+                         agreement, area, blockers, behind)
     floor = float(np.count_nonzero(on_map_only)) * grid.resolution ** 2
     return Diagnosis(BOXED_IN, f"boxed in by {what}{where}: none of the "
                                f"{len(wanted) or len(remaining)} waypoint(s) left is reachable, "
@@ -211,6 +229,11 @@ class StuckWatch:
                 self.odometer_at_first_miss = odometer
             self.missed_in_row += 1
             self.missed.append(index)
+
+    def cleared_in_spell(self) -> bool:
+        """Did a round since a waypoint was last reached clear the obstacle layer? (What the
+        layer marks now, the lidar saw again after that.)"""
+        return any("clear_obstacles" in r.action for r in self.log[self.spell_start:])
 
     def moved_since_first_miss(self, odometer: float) -> float | None:
         """Metres driven since the spell of missed waypoints began (None: not known)."""

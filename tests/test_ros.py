@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 from shared_data import SHARED
 
@@ -573,5 +574,32 @@ def test_clear_costmaps_calls_move_base_s_service(bridge):
         rospy.ServiceProxy(name, Empty)()  # served: an Empty answer, no exception
         handle = robot.navigate(Pose2D(6.0, 6.5, 0.0))  # and the robot drives on after the clears
         assert _until_done(robot, handle) is Status.SUCCEEDED
+    finally:
+        robot.close()
+
+
+def test_the_obstacle_layer_is_move_base_s_global_costmap(bridge):
+    """A pass that keeps failing waypoints after a clear reads the obstacle layer
+    (bomc_bt.stuck): over ROS it is the lethal cells of move_base's global costmap, which
+    the sim-over-ROS bridge publishes from the simulator's layer: the map's walls and the
+    furniture the lidar marked, which the saved map does not have."""
+    from bomc_bt.grid import load_map
+
+    saved = load_map(WORLD.parent / "lab-b-map.yaml")
+    bridge("--mode", "monitor", "--map", str(WORLD.parent / "lab-b-map.yaml"))
+    robot = _robot("monitor")
+    try:
+        assert robot.params.costmap_topic == "/move_base/global_costmap/costmap"
+        _localize(robot)
+        for _ in range(10):
+            robot.step()
+        cells = robot.obstacle_layer()
+        rows, cols = saved.world_to_cell(cells[:, 0], cells[:, 1])
+        on_walls = saved.data[rows, cols] == 100
+        assert on_walls.sum() == (saved.data == 100).sum()  # every wall of the map
+        marked = cells[~on_walls]
+        chairs = np.array([[4.5, 4.0], [5.5, 4.0], [4.5, 9.0]])
+        near = np.hypot(*(marked[:, None, :] - chairs[None, :, :]).transpose(2, 0, 1)).min(axis=1) < 0.6
+        assert near.sum() >= 3, marked  # the chairs in sight of the start, which the map does not have
     finally:
         robot.close()

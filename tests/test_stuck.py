@@ -95,6 +95,32 @@ def test_a_robot_that_did_not_move_while_waypoints_failed_is_wedged_not_misled_b
     assert moved_on.cause == STALE_OBSTACLES
 
 
+def cells(x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    """(N, 2) centres of the cells of a box: what an obstacle layer marks for it."""
+    xs, ys = np.meshgrid(np.arange(x0, x1, RES), np.arange(y0, y1, RES))
+    return np.stack([xs.ravel(), ys.ravel()], axis=1)
+
+
+def test_an_obstacle_marked_again_after_a_clear_cuts_off_waypoints_out_of_the_scans_sight():
+    """A cabinet in the doorway, the robot round a corner from it: the scan sees only the
+    map's walls. Before any clear that is a stale layer; once the layer was cleared and the
+    lidar marked the cabinet again, the waypoints behind it are cut off, and which."""
+    saved = two_rooms()
+    cabinet = cells(4.9, 0.9, 5.3, 2.2)
+    remaining = [(8.0, 2.5), (1.0, 2.5), (9.0, 0.5)]
+    scan = cast(saved, ROBOT)  # nothing but walls in sight
+    assert diagnose(saved, ROBOT, scan, BEYOND, remaining, PARAMS, RADIUS).cause == STALE_OBSTACLES
+    found = diagnose(saved, ROBOT, scan, BEYOND, remaining, PARAMS, RADIUS, layer=cabinet)
+    assert found.cause == CUT_OFF and found.cut_off == [0, 2]  # (1, 2.5) is in the robot's own room
+    assert "marked again after the obstacle layer was cleared" in found.detail
+    bx, by = found.blockers[0]
+    assert 4.8 <= bx <= 5.4 and 0.8 <= by <= 2.3
+    boxed = diagnose(saved, ROBOT, scan, BEYOND, [(8.0, 2.5), (9.0, 0.5)], PARAMS, RADIUS, layer=cabinet)
+    assert boxed.cause == BOXED_IN and boxed.cut_off == []
+    gone = diagnose(saved, ROBOT, scan, BEYOND, remaining, PARAMS, RADIUS, layer=cells(1.0, 0.2, 1.4, 0.6))
+    assert gone.cause == STALE_OBSTACLES  # what the layer marks now does not stand in the way
+
+
 def test_a_scan_that_does_not_fit_the_map_at_the_pose_means_the_pose_is_lost():
     saved = two_rooms()
     truth = Pose2D(8.0, 0.8, 0.0)

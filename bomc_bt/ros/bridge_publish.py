@@ -1,11 +1,13 @@
 """What the sim bridge publishes: a :class:`SimRobot`'s state as a ROS robot's topics.
 
 ``/map`` (the sim mapper while building, the saved map while monitoring, latched like
-map_server), the scan, tf ``map -> odom -> base_link -> camera``, RGB(-D) images with
-camera_info, ``/amcl_pose`` and ``/clock``, and the simulator-only ground-truth channel
-(:mod:`bomc_bt.ros.ground_truth`). Every message's stamp is remembered per topic, so the
-bridge can announce what it has published (the lockstep protocol), and the newest message
-per topic, so it can publish it again for an executive that just connected.
+map_server), move_base's global costmap while monitoring (the map with the obstacle
+layer's marks lethal, on every change of the layer), the scan, tf
+``map -> odom -> base_link -> camera``, RGB(-D) images with camera_info, ``/amcl_pose``
+and ``/clock``, and the simulator-only ground-truth channel (:mod:`bomc_bt.ros.ground_truth`).
+Every message's stamp is remembered per topic, so the bridge can announce what it has
+published (the lockstep protocol), and the newest message per topic, so it can publish it
+again for an executive that just connected.
 """
 
 from __future__ import annotations
@@ -59,6 +61,9 @@ class SimStatePublisher:
             "depth": rospy.Publisher(params.depth_topic, Image, queue_size=2),
             "info": rospy.Publisher(params.camera_info_topic, CameraInfo, queue_size=2),
         }
+        if params.costmap_topic:
+            self.pub["costmap"] = rospy.Publisher(params.costmap_topic, self._grid_msg_cls, queue_size=1, latch=True)
+        self._costmap_version: Any = None
         if params.instances_topic:
             self.pub["instances"] = rospy.Publisher(params.instances_topic, Image, queue_size=2)
             self.pub["instances_info"] = rospy.Publisher(info_topic(params.instances_topic), String, queue_size=2)
@@ -106,6 +111,9 @@ class SimStatePublisher:
                 self._map_version = version
                 self._next_map = now + self.p.map_period
                 self.publish_map(self.sim.live_map())
+        if "costmap" in self.pub and self.sim.costmap_version not in (None, self._costmap_version):
+            self._costmap_version = self.sim.costmap_version
+            self._send("costmap", self._grid_msg(self.sim.costmap()))
         if now >= self._next_scan:
             self._next_scan = now + self.scan_period
             self._publish_scan()
@@ -142,12 +150,15 @@ class SimStatePublisher:
         return self.p.camera_frame or "head_camera_rgb_optical_frame"
 
     def publish_map(self, grid: Any) -> None:
+        self._send("map", self._grid_msg(grid))
+
+    def _grid_msg(self, grid: Any) -> Any:
         msg = self._grid_msg_cls()
         msg.header.frame_id = self.p.map_frame
         msg.header.stamp = self.stamp()
         msg.info.map_load_time = msg.header.stamp
         fill_grid(msg, grid)
-        self._send("map", msg)
+        return msg
 
     def _publish_scan(self) -> None:
         from sensor_msgs.msg import LaserScan

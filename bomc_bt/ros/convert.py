@@ -168,6 +168,13 @@ def grid_from_msg(msg: Any) -> OccupancyGrid:
     )
 
 
+def lethal_cells(grid: OccupancyGrid) -> np.ndarray:
+    """(N, 2) map-frame centres of a costmap's lethal cells (100: an obstacle, not inflation)."""
+    rows, cols = np.nonzero(grid.data >= 100)
+    x, y = grid.cell_to_world(rows, cols)
+    return np.stack([np.asarray(x, float), np.asarray(y, float)], axis=1).reshape(-1, 2)
+
+
 def fill_grid(msg: Any, grid: OccupancyGrid) -> None:
     """Fill a numpy_msg(nav_msgs/OccupancyGrid) from a grid (row 0 = origin in both)."""
     msg.info.resolution = float(grid.resolution)

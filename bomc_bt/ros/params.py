@@ -35,6 +35,9 @@ class RosParams:
     nomotion_update_service: str = "/request_nomotion_update"  # [text] AMCL update without motion; "" never asks
     # [text] move_base's service that empties its costmaps' obstacle layers (std_srvs/Empty); "" never asks
     clear_costmaps_service: str = "/move_base/clear_costmaps"
+    # [text] move_base's global costmap (nav_msgs/OccupancyGrid); its lethal cells (100) are the
+    # obstacle layer a pass that keeps failing waypoints reads after a clear; "" never reads it
+    costmap_topic: str = "/move_base/global_costmap/costmap"
     nomotion_update_period: float = 1.0  # [s] ROS time between update requests while waiting
     initial_xy_std: float = 0.5  # [m] position std /initialpose is published with
     initial_yaw_std_deg: float = 17.188733853924695  # [deg] yaw std /initialpose is published with (0.3 rad exactly)

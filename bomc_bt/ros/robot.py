@@ -32,6 +32,7 @@ from bomc_bt.ros.convert import (
     decode_rgb,
     grid_from_msg,
     intrinsics,
+    lethal_cells,
     pose2d_from_matrix,
     scan_from_msg,
     transform_matrix,
@@ -91,6 +92,9 @@ class RosRobot:
             track(p.depth_topic, Image, self._on_image(self._depth, "depth"), queue_size=5, buff_size=2**24),
             track(p.camera_info_topic, CameraInfo, self._keep("_info"), queue_size=1),
         ]
+        self._costmap: tuple[Any, np.ndarray | None] = (None, None)  # (newest message, its lethal cells)
+        if p.costmap_topic:
+            self._subs.append(track(p.costmap_topic, numpy_msg(GridMsg), self._on_costmap, queue_size=1))
         self.ground_truth = None
         if p.instances_topic:  # the sim-over-ROS bridge's simulator-only channel
             from bomc_bt.ros.ground_truth import GroundTruthChannel
@@ -151,6 +155,10 @@ class RosRobot:
         with self._lock:
             self._map_msg = msg
             self._map_version += 1
+
+    def _on_costmap(self, msg: Any) -> None:
+        with self._lock:
+            self._costmap = (msg, None)
 
     def _on_amcl(self, msg: Any) -> None:
         with self._lock:
@@ -357,6 +365,20 @@ class RosRobot:
         """move_base's ``clear_costmaps`` service (``ros.clear_costmaps_service``), in the background."""
         if self.params.clear_costmaps_service:
             self.call_service(self.params.clear_costmaps_service)
+
+    def obstacle_layer(self) -> np.ndarray:
+        """The lethal cells (100) of move_base's global costmap (``ros.costmap_topic``): the
+        map's walls and what the obstacle layer marks; empty before the first message."""
+        with self._lock:
+            msg, cells = self._costmap
+        if msg is None:
+            return np.zeros((0, 2))
+        if cells is None:
+            cells = lethal_cells(grid_from_msg(msg))
+            with self._lock:
+                if self._costmap[0] is msg:
+                    self._costmap = (msg, cells)
+        return cells
 
     def cancel_all(self) -> None:
         if self._nav is not None:

@@ -284,6 +284,24 @@ class SimRobot:
             self._obstacles.clear()
             self._next_obstacle_update = self.now()
 
+    def obstacle_layer(self) -> np.ndarray:
+        """The obstacle layer's marked cells (monitor; empty while building)."""
+        return self._obstacles.points() if self._obstacles is not None else np.zeros((0, 2))
+
+    @property
+    def costmap_version(self) -> int | None:
+        """Changes whenever :meth:`costmap` does; None while no saved map is in use."""
+        return None if self._obstacles is None else self._obstacles.version
+
+    def costmap(self) -> OccupancyGrid | None:
+        """The map in use with the obstacle layer's marks lethal: move_base's global costmap
+        without inflation, as the sim-over-ROS bridge publishes it. None while building."""
+        if self._obstacles is None or self._map is None:
+            return None
+        data = self._map.data.copy()
+        data[self._obstacles.mask] = 100
+        return OccupancyGrid(data, self._map.resolution, self._map.origin)
+
     def cancel_all(self) -> None:
         self.navigator.cancel()
         if self._reloc is not None:

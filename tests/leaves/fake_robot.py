@@ -44,6 +44,7 @@ class FakeRobot:
         self.cancelled_all = False
         self.costmap_clears = 0
         self.latest_scan: LaserScan | None = None
+        self.layer = np.zeros((0, 2))  # the obstacle layer's marked cells (map frame); a clear empties it
 
     @property
     def last(self) -> RequestHandle:
@@ -89,6 +90,10 @@ class FakeRobot:
 
     def clear_costmaps(self) -> None:
         self.costmap_clears += 1
+        self.layer = np.zeros((0, 2))
+
+    def obstacle_layer(self) -> np.ndarray:
+        return self.layer
 
     def cancel_all(self) -> None:
         self.cancelled_all = True

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import numpy as np
+import py_trees
 import pytest
-from fake_robot import key, tick
+from fake_robot import key, open_room, tick
 from py_trees.common import Status
 
 from behaviours.recover import (
@@ -16,13 +18,15 @@ from behaviours.recover import (
     DiagnoseStuck,
     DiagnoseStuckParams,
     EndPassEarly,
+    SkipCutOff,
     StuckCauseIs,
     StuckCauseIsParams,
 )
 from bomc_bt.algorithm_params import RecoveryParams
 from bomc_bt.geometry import Pose2D
-from bomc_bt.monitoring import MISSED, VISITED, TraversalState
-from bomc_bt.stuck import STALE_OBSTACLES
+from bomc_bt.grid import OccupancyGrid
+from bomc_bt.monitoring import MISSED, PENDING, VISITED, TraversalState
+from bomc_bt.stuck import CUT_OFF, STALE_OBSTACLES, Diagnosis
 from bomc_bt.traversal import TraversalPlan
 
 
@@ -179,3 +183,54 @@ def test_the_shipped_recovery_clears_a_stale_layer_then_ends_the_pass_when_nothi
     assert ctx.outcome == ENDED_EARLY and robot.cancelled_all
     assert ctx.reason.startswith("pass ended early at waypoint 13/14 after 2 recovery round(s) (clear_obstacles): "
                                  "stale_obstacles")
+
+
+def two_rooms() -> OccupancyGrid:
+    """The 10 m open room with a wall across at x = 5 m and a 1.2 m doorway (y 4.4 to 5.6)."""
+    grid = open_room()
+    data = grid.data.copy()
+    data[:, 99:101] = 100
+    data[88:112, 99:101] = 0
+    return OccupancyGrid(data, grid.resolution, grid.origin)
+
+
+DOORWAY_CABINET = np.stack(np.meshgrid(np.arange(4.85, 5.3, 0.05), np.arange(4.3, 5.75, 0.05)), -1).reshape(-1, 2)
+
+
+def test_skip_cut_off_marks_missed_the_waypoints_still_to_visit_behind_the_obstacles(ctx):
+    state = start_pass(ctx, 6)
+    finish(state, VISITED)
+    finish(state, MISSED)
+    behind = Diagnosis(CUT_OFF, "behind a cabinet", 1.0, 10.0, cut_off=[0, 1, 3, 5])
+    py_trees.blackboard.Blackboard.set("/stuck_cause", behind)
+    assert tick(SkipCutOff("Skip", None, ctx)) == Status.SUCCESS
+    assert state.states == [VISITED, MISSED, PENDING, MISSED, PENDING, MISSED]  # a visited one stays visited
+    assert [state.next() for _ in range(6)] == [2, 4, 1, 3, 5, None]  # passed over, then back once at the end
+
+
+def test_waypoints_behind_an_obstacle_seen_again_after_a_clear_are_skipped_and_the_pass_goes_on(ctx, robot, tmp_path):
+    """The shipped Keep Going on the scripted robot: waypoints in the far room fail, the
+    layer is cleared (it could be stale); the lidar marks the cabinet in the doorway again
+    as the robot drives up, and the next failures are a cut-off far room, not a stale
+    layer: its waypoints are skipped and the pass goes on in the robot's room, where it
+    used to clear the layer once more and end the pass."""
+    robot.grid = two_rooms()
+    robot.place(Pose2D(2.5, 5.0, 0.0))
+    root = keep_going_tree(ctx, tmp_path)
+    far = [(7.0, y) for y in (2.0, 4.0, 6.0, 8.0)] + [(8.5, y) for y in (2.0, 5.0, 8.0)]
+    near = [(2.0, 2.0), (2.0, 8.0), (3.5, 5.0)]
+    ctx.plan = TraversalPlan([Pose2D(x, y, 0.0) for x, y in far + near], euclidean_length=30.0)
+    state = ctx.traverse = TraversalState(ctx.plan)
+    for _ in range(3):
+        finish(state, MISSED, robot)
+        run_once(root, robot)
+    assert robot.costmap_clears == 1 and ctx.watch.log[0].cause == STALE_OBSTACLES
+    robot.layer = DOORWAY_CABINET  # driving up to the doorway again, the lidar marks the cabinet
+    for _ in range(3):
+        finish(state, MISSED, robot)
+        assert run_once(root, robot) == Status.SUCCESS
+    assert ctx.outcome == "" and robot.costmap_clears == 1
+    assert ctx.watch.log[1].cause == CUT_OFF and "marked again" in ctx.watch.log[1].detail
+    assert ctx.watch.log[1].result == "carried on without 1 waypoint(s) behind the same obstacles"
+    assert state.states == [MISSED] * 7 + [PENDING] * 3
+    assert state.next() == 7  # on with the robot's own room
