@@ -138,10 +138,11 @@ class StuckCauseIs(Leaf):
 
 @register("SkipCutOff")
 class SkipCutOff(Leaf):
-    """Marks missed the waypoints still to visit that the diagnosis (``stuck_cause``) found
-    behind the same obstacles as those that failed: each would fail the same way, retried
-    and detoured in turn. Missed waypoints come back once at the end of the loop, when the
-    way may be open again. Always succeeds (the pass carries on)."""
+    """Gives up on the waypoints the diagnosis (``stuck_cause``) found behind the same
+    obstacles as those that failed: the ones still to visit are marked missed, and none of
+    them comes back at the end of the loop. Each would fail the same way: tried twice and
+    detoured three times, 15 s without progress each (willow, pass 8: 56 such second
+    chances at 75 s each, none reached). Always succeeds (the pass carries on)."""
 
     reads = ("stuck_cause",)
 
@@ -149,12 +150,16 @@ class SkipCutOff(Leaf):
         ctx = self.context
         found = self.get("stuck_cause")
         state = ctx.traverse
-        skipped = [i for i in (found.cut_off if found else []) if state.states[i] == PENDING]
-        for i in skipped:
+        behind = [i for i in (found.cut_off if found else []) if state.states[i] in (PENDING, MISSED)]
+        skipped = [i for i in behind if state.states[i] == PENDING]
+        for i in behind:
             state.mark(i, MISSED)
-        watch_of(ctx).act("none", f"carried on without {len(skipped)} waypoint(s) behind the same obstacles"
-                          if skipped else "carried on: the robot can reach other waypoints")
-        self.feedback_message = f"skipped {len(skipped)} waypoint(s) behind the obstacles"
+            if i not in state.retried:
+                state.retried.append(i)  # its second chance is spent: the way was seen shut
+        result = (f"carried on without {len(behind)} waypoint(s) behind the same obstacles ({len(skipped)} not tried)"
+                  if behind else "carried on: the robot can reach other waypoints")
+        watch_of(ctx).act("none", result)
+        self.feedback_message = f"gave up on {len(behind)} waypoint(s) behind the obstacles"
         return Status.SUCCESS
 
 

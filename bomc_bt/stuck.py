@@ -22,8 +22,8 @@ behind the recovery subtree of ``trees/recover.yaml``:
     every goal fails where it stands);
   - ``cut_off``: the failed waypoints lie behind such objects, but others are reachable:
     the robot is fine, those waypoints are blocked, the pass carries on without the
-    waypoints behind the same objects (:attr:`Diagnosis.cut_off`; they come back once at
-    the end of the loop).
+    waypoints behind the same objects (:attr:`Diagnosis.cut_off`; missed, with no second
+    chance at the end of the loop).
 
   Once this spell of failures has cleared the obstacle layer and waypoints still fail, the
   layer as the lidar rebuilt it counts as well (``layer``): an obstacle seen again after a
