@@ -160,8 +160,9 @@ class RobotPort(Protocol):
     def obstacle_layer(self) -> np.ndarray:
         """(N, 2) map-frame centres of the cells navigation's obstacle layer marks now: what
         the lidar saw since the layer was last cleared, including obstacles out of the
-        current scan's sight (a table the robot drove past). Empty when nothing is marked
-        or the robot does not tell. A pass that keeps failing waypoints after clearing the
+        current scan's sight (a table the robot drove past); the map's walls may be among
+        them. Empty when nothing is marked or the robot cannot tell what it marks since the
+        last :meth:`clear_costmaps`. A pass that keeps failing waypoints after clearing the
         layer reads it to tell real obstacles from stale ones (:mod:`bomc_bt.stuck`)."""
 
     def cancel_all(self) -> None:

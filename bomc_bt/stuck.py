@@ -21,9 +21,9 @@ behind the recovery subtree of ``trees/recover.yaml``:
     the robot has not moved while the waypoints failed (wedged: the way looks open, but
     every goal fails where it stands);
   - ``cut_off``: the failed waypoints lie behind such objects, but others are reachable:
-    the robot is fine, those waypoints are blocked, the pass carries on without the
-    waypoints behind the same objects (:attr:`Diagnosis.cut_off`; missed, with no second
-    chance at the end of the loop).
+    the robot is fine, those waypoints are blocked, the pass carries on. When the objects
+    are obstacles seen again after a clear (below), it gives up on every waypoint behind
+    them (:attr:`Diagnosis.cut_off`; missed, with no second chance at the end of the loop).
 
   Once this spell of failures has cleared the obstacle layer and waypoints still fail, the
   layer as the lidar rebuilt it counts as well (``layer``): an obstacle seen again after a
@@ -64,7 +64,8 @@ class Diagnosis:
     agreement: float  # share of scan returns on the map's walls
     reachable_area_m2: float  # floor the robot can reach past what the lidar sees
     blockers: list[tuple[float, float]] = field(default_factory=list)  # scan returns off the map, nearest first
-    cut_off: list[int] = field(default_factory=list)  # cut_off: the remaining waypoints (indices) behind them
+    # cut_off from a layer seen again after a clear: the remaining waypoints (indices) behind the obstacles
+    cut_off: list[int] = field(default_factory=list)
 
     def __str__(self) -> str:
         return f"{self.cause}: {self.detail}"
@@ -112,9 +113,11 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     wanted = [k for k, xy in enumerate(remaining) if _inside(grid, on_map_only, xy)]
     behind = [k for k in wanted if not _inside(grid, now, remaining[k])]
     if len(behind) < len(wanted):
-        return Diagnosis(CUT_OFF, f"the waypoints that failed and {len(behind)} more lie behind {what}{where}; "
-                                  f"the robot can reach the other {len(wanted) - len(behind)}",
-                         agreement, area, blockers, behind)
+        # Only obstacles seen again after a clear are sure enough to give waypoints up for
+        # (a person in a doorway is in the scan too, and gone a minute later).
+        return Diagnosis(CUT_OFF, f"the waypoints that failed lie behind {what}{where}, with {len(behind)} of "
+                                  f"the {len(wanted)} left; the robot can reach the other {len(wanted) - len(behind)}",
+                         agreement, area, blockers, behind if layer is not None else [])
     floor = float(np.count_nonzero(on_map_only)) * grid.resolution ** 2
     return Diagnosis(BOXED_IN, f"boxed in by {what}{where}: none of the "
                                f"{len(wanted) or len(remaining)} waypoint(s) left is reachable, "

@@ -601,5 +601,10 @@ def test_the_obstacle_layer_is_move_base_s_global_costmap(bridge):
         chairs = np.array([[4.5, 4.0], [5.5, 4.0], [4.5, 9.0]])
         near = np.hypot(*(marked[:, None, :] - chairs[None, :, :]).transpose(2, 0, 1)).min(axis=1) < 0.6
         assert near.sum() >= 3, marked  # the chairs in sight of the start, which the map does not have
+        robot.clear_costmaps()
+        assert len(robot.obstacle_layer()) == 0  # what move_base marked before the clear does not count
+        for _ in range(20):  # 2 s: the bridge publishes the rebuilt layer at most every second
+            robot.step()
+        assert len(robot.obstacle_layer()) >= on_walls.sum()  # marked again since the clear
     finally:
         robot.close()

@@ -78,6 +78,7 @@ def test_waypoints_behind_the_object_are_cut_off_when_others_are_reachable():
     now = with_box(saved, 4.9, 0.9, 5.3, 2.2)
     found = diagnose(saved, ROBOT, cast(now, ROBOT), BEYOND, [(8.0, 2.5), (1.0, 2.5)], PARAMS, RADIUS)
     assert found.cause == CUT_OFF  # (1, 2.5) is in the robot's own room: nothing is wrong with the robot
+    assert found.cut_off == []  # seen in the scan alone (a person is too): no waypoint is given up
 
 
 def test_a_way_the_lidar_sees_open_means_the_obstacle_layer_is_stale():

@@ -2,7 +2,7 @@
 
 ``/map`` (the sim mapper while building, the saved map while monitoring, latched like
 map_server), move_base's global costmap while monitoring (the map with the obstacle
-layer's marks lethal, on every change of the layer), the scan, tf
+layer's marks lethal, when the layer changed, at most every ``costmap_period``), the scan, tf
 ``map -> odom -> base_link -> camera``, RGB(-D) images with camera_info, ``/amcl_pose``
 and ``/clock``, and the simulator-only ground-truth channel (:mod:`bomc_bt.ros.ground_truth`).
 Every message's stamp is remembered per topic, so the bridge can announce what it has
@@ -64,6 +64,7 @@ class SimStatePublisher:
         if params.costmap_topic:
             self.pub["costmap"] = rospy.Publisher(params.costmap_topic, self._grid_msg_cls, queue_size=1, latch=True)
         self._costmap_version: Any = None
+        self._next_costmap = 0.0
         if params.instances_topic:
             self.pub["instances"] = rospy.Publisher(params.instances_topic, Image, queue_size=2)
             self.pub["instances_info"] = rospy.Publisher(info_topic(params.instances_topic), String, queue_size=2)
@@ -111,8 +112,10 @@ class SimStatePublisher:
                 self._map_version = version
                 self._next_map = now + self.p.map_period
                 self.publish_map(self.sim.live_map())
-        if "costmap" in self.pub and self.sim.costmap_version not in (None, self._costmap_version):
+        if ("costmap" in self.pub and now >= self._next_costmap
+                and self.sim.costmap_version not in (None, self._costmap_version)):
             self._costmap_version = self.sim.costmap_version
+            self._next_costmap = now + self.p.costmap_period
             self._send("costmap", self._grid_msg(self.sim.costmap()))
         if now >= self._next_scan:
             self._next_scan = now + self.scan_period

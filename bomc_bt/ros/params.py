@@ -36,7 +36,8 @@ class RosParams:
     # [text] move_base's service that empties its costmaps' obstacle layers (std_srvs/Empty); "" never asks
     clear_costmaps_service: str = "/move_base/clear_costmaps"
     # [text] move_base's global costmap (nav_msgs/OccupancyGrid); its lethal cells (100) are the
-    # obstacle layer a pass that keeps failing waypoints reads after a clear; "" never reads it
+    # obstacle layer a pass that keeps failing waypoints reads after a clear, from the first full
+    # costmap stamped after it (global_costmap: always_send_full_costmap: true); "" never reads it
     costmap_topic: str = "/move_base/global_costmap/costmap"
     nomotion_update_period: float = 1.0  # [s] ROS time between update requests while waiting
     initial_xy_std: float = 0.5  # [m] position std /initialpose is published with
@@ -83,6 +84,7 @@ class RosParams:
     # [s] sim time between /map publications while building; 0 = on every mapper update,
     # as the direct simulator's explorer sees the map (GMapping itself throttles to ~5 s).
     map_period: float = 0.0
+    costmap_period: float = 1.0  # [s] sim time between global costmaps while the layer changes (publish_frequency)
 
     @property
     def stepped(self) -> str:
@@ -109,8 +111,8 @@ class RosParams:
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0")
-        if self.sync_slop < 0 or self.map_period < 0:
-            raise ValueError("sync_slop and map_period must be >= 0")
+        if self.sync_slop < 0 or self.map_period < 0 or self.costmap_period < 0:
+            raise ValueError("sync_slop, map_period and costmap_period must be >= 0")
         if not 0 <= self.depth_min < self.depth_max:
             raise ValueError("depth_min must be >= 0 and below depth_max")
         if self.depth_encoding not in ("32FC1", "16UC1"):

@@ -93,6 +93,7 @@ class RosRobot:
             track(p.camera_info_topic, CameraInfo, self._keep("_info"), queue_size=1),
         ]
         self._costmap: tuple[Any, np.ndarray | None] = (None, None)  # (newest message, its lethal cells)
+        self._cleared_at = -math.inf  # ROS time of the last clear_costmaps
         if p.costmap_topic:
             self._subs.append(track(p.costmap_topic, numpy_msg(GridMsg), self._on_costmap, queue_size=1))
         self.ground_truth = None
@@ -363,15 +364,19 @@ class RosRobot:
 
     def clear_costmaps(self) -> None:
         """move_base's ``clear_costmaps`` service (``ros.clear_costmaps_service``), in the background."""
+        self._cleared_at = self.now()
         if self.params.clear_costmaps_service:
             self.call_service(self.params.clear_costmaps_service)
 
     def obstacle_layer(self) -> np.ndarray:
         """The lethal cells (100) of move_base's global costmap (``ros.costmap_topic``): the
-        map's walls and what the obstacle layer marks; empty before the first message."""
+        map's walls and what the obstacle layer marks. Empty until a full costmap stamped
+        after the last clear came in: move_base sends one to each new subscriber and, with
+        the global costmap's ``always_send_full_costmap``, one per publish cycle; without it
+        the diagnosis uses the scan alone (the costmap's incremental updates are not read)."""
         with self._lock:
             msg, cells = self._costmap
-        if msg is None:
+        if msg is None or msg.header.stamp.to_sec() <= self._cleared_at:
             return np.zeros((0, 2))
         if cells is None:
             cells = lethal_cells(grid_from_msg(msg))

@@ -23,8 +23,10 @@ from behaviours.recover import (
     StuckCauseIsParams,
 )
 from bomc_bt.algorithm_params import RecoveryParams
+from bomc_bt.budget_plan import PassBudget
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.monitor_pass import progress_key
 from bomc_bt.monitoring import MISSED, PENDING, VISITED, TraversalState
 from bomc_bt.stuck import CUT_OFF, STALE_OBSTACLES, Diagnosis
 from bomc_bt.traversal import TraversalPlan
@@ -206,6 +208,16 @@ def test_skip_cut_off_marks_missed_the_waypoints_still_to_visit_behind_the_obsta
     assert tick(SkipCutOff("Skip", None, ctx)) == Status.SUCCESS
     assert state.states == [VISITED, MISSED, PENDING, MISSED, PENDING, MISSED]  # a visited one stays visited
     assert [state.next() for _ in range(3)] == [2, 4, None]  # passed over, and not back at the end either
+    saved = ctx.store.get_progress(progress_key(ctx.session))  # a kill from here on resumes with them skipped
+    assert saved["states"] == state.states and sorted(saved["retried"]) == [1, 3, 5]
+
+
+def test_skip_cut_off_never_gives_up_a_budgeted_pass_s_dock(ctx):
+    state = start_pass(ctx, 4)
+    ctx.budget = PassBudget(seconds=600.0, strategy="changes", speed=0.5, heading_time=5.0)
+    py_trees.blackboard.Blackboard.set("/stuck_cause", Diagnosis(CUT_OFF, "behind", 1.0, 1.0, cut_off=[1, 2, 3]))
+    assert tick(SkipCutOff("Skip", None, ctx)) == Status.SUCCESS
+    assert state.states == [PENDING, MISSED, MISSED, PENDING]  # the last waypoint is the way home
 
 
 def test_waypoints_behind_an_obstacle_seen_again_after_a_clear_are_skipped_and_the_pass_goes_on(ctx, robot, tmp_path):
