@@ -37,7 +37,8 @@ class RosParams:
     clear_costmaps_service: str = "/move_base/clear_costmaps"
     # [text] move_base's global costmap (nav_msgs/OccupancyGrid); its lethal cells (100) are the
     # obstacle layer a pass that keeps failing waypoints reads after a clear, from the first full
-    # costmap stamped after it (global_costmap: always_send_full_costmap: true); "" never reads it
+    # costmap stamped after it (global_costmap: publish_frequency > 0, always_send_full_costmap: true); ""
+    # never reads it
     costmap_topic: str = "/move_base/global_costmap/costmap"
     nomotion_update_period: float = 1.0  # [s] ROS time between update requests while waiting
     initial_xy_std: float = 0.5  # [m] position std /initialpose is published with
