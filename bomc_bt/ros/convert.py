@@ -168,6 +168,18 @@ def grid_from_msg(msg: Any) -> OccupancyGrid:
     )
 
 
+def decimal_resolution(grid: OccupancyGrid) -> OccupancyGrid:
+    """The grid with the decimal resolution its float32 message field stands for.
+
+    nav_msgs/OccupancyGrid carries the resolution as float32: 0.05 arrives as
+    0.0500000007, which moves cell boundaries (world_to_cell floors) off the saved map's
+    and the simulator's. The shortest decimal that round-trips the float32 is what the
+    sender (map_server reads a YAML decimal) meant.
+    """
+    resolution = float(str(np.float32(grid.resolution)))
+    return OccupancyGrid(grid.data, resolution, tuple(grid.origin))
+
+
 def lethal_cells(grid: OccupancyGrid) -> np.ndarray:
     """(N, 2) map-frame centres of a costmap's lethal cells (100: an obstacle, not inflation)."""
     rows, cols = np.nonzero(grid.data >= 100)

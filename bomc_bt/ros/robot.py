@@ -28,15 +28,16 @@ from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import Handle, LaserScan, RequestHandle, RGBDFrame, Status
 from bomc_bt.ros.amcl import AmclRelocalization
 from bomc_bt.ros.convert import (
+    decimal_resolution,
     decode_depth,
     decode_rgb,
     grid_from_msg,
     intrinsics,
-    lethal_cells,
     pose2d_from_matrix,
     scan_from_msg,
     transform_matrix,
 )
+from bomc_bt.ros.costmap import GlobalCostmap
 from bomc_bt.ros.lockstep import LockstepClient
 from bomc_bt.ros.move_base import MoveBaseClient, NavGoal
 from bomc_bt.ros.node import check_master, ensure_node
@@ -92,10 +93,9 @@ class RosRobot:
             track(p.depth_topic, Image, self._on_image(self._depth, "depth"), queue_size=5, buff_size=2**24),
             track(p.camera_info_topic, CameraInfo, self._keep("_info"), queue_size=1),
         ]
-        self._costmap: tuple[Any, np.ndarray | None] = (None, None)  # (newest message, its lethal cells)
-        self._cleared_at = -math.inf  # ROS time of the last clear_costmaps
+        self.costmap = GlobalCostmap()
         if p.costmap_topic:
-            self._subs.append(track(p.costmap_topic, numpy_msg(GridMsg), self._on_costmap, queue_size=1))
+            self._subs.append(track(p.costmap_topic, numpy_msg(GridMsg), self.costmap.on_message, queue_size=1))
         self.ground_truth = None
         if p.instances_topic:  # the sim-over-ROS bridge's simulator-only channel
             from bomc_bt.ros.ground_truth import GroundTruthChannel
@@ -156,10 +156,6 @@ class RosRobot:
         with self._lock:
             self._map_msg = msg
             self._map_version += 1
-
-    def _on_costmap(self, msg: Any) -> None:
-        with self._lock:
-            self._costmap = (msg, None)
 
     def _on_amcl(self, msg: Any) -> None:
         with self._lock:
@@ -251,7 +247,7 @@ class RosRobot:
                 return self._grid
             return OccupancyGrid(data=np.full((1, 1), -1, np.int8), resolution=0.05, origin=(0.0, 0.0))
         if self._map_cache is None or self._map_cache[0] != version:
-            self._map_cache = (version, _decimal_resolution(grid_from_msg(msg)))
+            self._map_cache = (version, decimal_resolution(grid_from_msg(msg)))
         return self._map_cache[1]
 
     def use_map(self, grid: OccupancyGrid) -> None:
@@ -364,26 +360,15 @@ class RosRobot:
 
     def clear_costmaps(self) -> None:
         """move_base's ``clear_costmaps`` service (``ros.clear_costmaps_service``), in the background."""
-        self._cleared_at = self.now()
+        self.costmap.cleared(self.now())
         if self.params.clear_costmaps_service:
             self.call_service(self.params.clear_costmaps_service)
 
     def obstacle_layer(self) -> np.ndarray:
-        """The lethal cells (100) of move_base's global costmap (``ros.costmap_topic``): the
-        map's walls and what the obstacle layer marks. Empty until a full costmap stamped
-        after the last clear came in: move_base sends one to each new subscriber and, with
-        the global costmap's ``always_send_full_costmap``, one per publish cycle; without it
-        the diagnosis uses the scan alone (the costmap's incremental updates are not read)."""
-        with self._lock:
-            msg, cells = self._costmap
-        if msg is None or msg.header.stamp.to_sec() <= self._cleared_at:
-            return np.zeros((0, 2))
-        if cells is None:
-            cells = lethal_cells(grid_from_msg(msg))
-            with self._lock:
-                if self._costmap[0] is msg:
-                    self._costmap = (msg, cells)
-        return cells
+        """The lethal cells of move_base's global costmap (``ros.costmap_topic``): the map's
+        walls and what the obstacle layer marks, from a full costmap stamped after the last
+        clear (:class:`bomc_bt.ros.costmap.GlobalCostmap`); else empty."""
+        return self.costmap.cells()
 
     def cancel_all(self) -> None:
         if self._nav is not None:
@@ -407,18 +392,6 @@ class RosRobot:
                     rospy.logwarn(f"bomc: service {name} failed: {exc}")
 
         threading.Thread(target=call, name=f"bomc-{name}", daemon=True).start()
-
-
-def _decimal_resolution(grid: OccupancyGrid) -> OccupancyGrid:
-    """The grid with the decimal resolution its float32 message field stands for.
-
-    nav_msgs/OccupancyGrid carries the resolution as float32: 0.05 arrives as
-    0.0500000007, which moves cell boundaries (world_to_cell floors) off the saved map's
-    and the simulator's. The shortest decimal that round-trips the float32 is what the
-    sender (map_server reads a YAML decimal) meant.
-    """
-    resolution = float(str(np.float32(grid.resolution)))
-    return OccupancyGrid(grid.data, resolution, tuple(grid.origin))
 
 
 def _stamp(msg: Any) -> float:
