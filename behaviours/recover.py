@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 from py_trees.common import Status
 
 from bomc_bt.geometry import Pose2D
-from bomc_bt.monitor_pass import save_pass
+from bomc_bt.monitor_pass import give_up, save_pass
 from bomc_bt.monitoring import MISSED, PENDING
 from bomc_bt.stuck import CAUSES, CUT_OFF, LOST, StuckWatch, diagnose, diagnosis_line
 from bomc_bt.tree.leaf import Leaf
@@ -140,11 +140,9 @@ class StuckCauseIs(Leaf):
 @register("SkipCutOff")
 class SkipCutOff(Leaf):
     """Gives up on the waypoints the diagnosis (``stuck_cause``) found behind obstacles the
-    lidar saw again after a clear: the ones still to visit are marked missed, and none of
-    them comes back at the end of the loop. Each would fail the same way: tried twice and
-    detoured three times, 15 s without progress each (willow, pass 8: 53 such second
-    chances, 75 s each, none reached). A budgeted pass's dock (its last waypoint) is never
-    given up. Saves the pass's progress; always succeeds (the pass carries on)."""
+    lidar saw again after a clear (:func:`bomc_bt.monitor_pass.give_up`: missed, no second
+    chance at the end of the loop), but a budgeted pass's dock, its last waypoint. Saves the
+    pass's progress; always succeeds (the pass carries on)."""
 
     reads = ("stuck_cause",)
 
@@ -153,13 +151,8 @@ class SkipCutOff(Leaf):
         found = self.get("stuck_cause")
         state = ctx.traverse
         dock = len(state.states) - 1 if ctx.budget is not None else None
-        behind = [i for i in (found.cut_off if found else []) if state.states[i] in (PENDING, MISSED) and i != dock]
-        skipped = [i for i in behind if state.states[i] == PENDING]
-        for i in behind:
-            state.mark(i, MISSED)
-            if i not in state.retried:
-                state.retried.append(i)  # its second chance is spent: the way was seen shut
-        result = (f"carried on without {len(behind)} waypoint(s) behind the same obstacles ({len(skipped)} not tried)"
+        behind, untried = give_up(state, found.cut_off if found else [], keep=dock)
+        result = (f"carried on without {len(behind)} waypoint(s) behind the same obstacles ({len(untried)} not tried)"
                   if behind else "carried on: the robot can reach other waypoints")
         watch_of(ctx).act("none", result)
         if behind:

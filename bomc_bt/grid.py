@@ -72,6 +72,11 @@ class OccupancyGrid:
         y = self.origin[1] + (np.asarray(row, dtype=float) + 0.5) * self.resolution
         return x, y
 
+    def cell_centres(self, mask: np.ndarray) -> np.ndarray:
+        """(N, 2) map-frame centres of the cells where the grid-shaped bool ``mask`` is set."""
+        x, y = self.cell_to_world(*np.nonzero(mask))
+        return np.stack([x, y], axis=1).reshape(-1, 2)
+
     def in_bounds(self, row, col):
         row, col = np.asarray(row), np.asarray(col)
         return (row >= 0) & (row < self.height) & (col >= 0) & (col < self.width)

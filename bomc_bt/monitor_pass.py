@@ -66,6 +66,22 @@ def pass_exhausted(state: TraversalState) -> bool:
 STOP_RADIUS = 0.05  # [m] waypoints this near each other are one stop's headings (the plan gives them one place)
 
 
+def give_up(state: TraversalState, indices: list[int], keep: int | None = None) -> tuple[list[int], list[int]]:
+    """Give up on waypoints ``indices`` (but ``keep``): those still pending or missed are
+    marked missed and get no second chance at the end of the loop. Returns (given up, of
+    those the ones not tried yet). For waypoints behind obstacles seen again after a clear
+    (Skip Waypoints Behind, ``trees/recover.yaml``): each would be tried twice and detoured three
+    times, 15 s without progress each, for nothing (willow, pass 8: 53 such second chances,
+    none reached)."""
+    given = [i for i in indices if state.states[i] in (PENDING, MISSED) and i != keep]
+    untried = [i for i in given if state.states[i] == PENDING]
+    for i in given:
+        state.mark(i, MISSED)
+        if i not in state.retried:
+            state.retried.append(i)
+    return given, untried
+
+
 def miss_stop(state: TraversalState, i: int) -> list[int]:
     """Mark waypoint ``i`` missed, with the rest of its stop; returns the others so marked.
 

@@ -182,9 +182,7 @@ def decimal_resolution(grid: OccupancyGrid) -> OccupancyGrid:
 
 def lethal_cells(grid: OccupancyGrid) -> np.ndarray:
     """(N, 2) map-frame centres of a costmap's lethal cells (100: an obstacle, not inflation)."""
-    rows, cols = np.nonzero(grid.data >= 100)
-    x, y = grid.cell_to_world(rows, cols)
-    return np.stack([np.asarray(x, float), np.asarray(y, float)], axis=1).reshape(-1, 2)
+    return grid.cell_centres(grid.data >= 100)
 
 
 def fill_grid(msg: Any, grid: OccupancyGrid) -> None:

@@ -207,9 +207,7 @@ class ObstacleLayer:
 
     def points(self) -> np.ndarray:
         """(N, 2) map-frame centres of the marked cells."""
-        rows, cols = np.nonzero(self.mask)
-        x, y = self.geometry.cell_to_world(rows, cols)
-        return np.stack([np.asarray(x, float), np.asarray(y, float)], axis=1).reshape(-1, 2)
+        return self.geometry.cell_centres(self.mask)
 
     def packed(self) -> str:
         """The mask as a checkpoint saves it, packed once per version: a pass commits with
