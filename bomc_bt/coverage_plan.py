@@ -20,8 +20,9 @@ where an object can be, so this plan starts from the saved map and the camera in
    already chosen (or the dock), until none adds a ``min_gain``-wide square. A room seen through its door
    from the corridor gets no viewpoint inside: the one in the corridor sees it for nothing.
 5. Tour: nearest neighbour from the dock, then 2-opt, Or-opt (moving runs of up to three
-   stops) and 2-opt again, over grid path lengths (:mod:`bomc_bt.path_matrix`), from and
-   back to the dock (``closed_tour``).
+   stops), 2-opt again and ``tour_kicks`` rounds of iterated local search
+   (:mod:`bomc_bt.tour_search`), over grid path lengths (:mod:`bomc_bt.path_matrix`), from
+   and back to the dock (``closed_tour``).
 6. With ``drive_by``: the floor the camera sees while driving that tour (facing ahead) is
    counted as seen and steps 4-5 run once more, dropping stops that only looked along
    corridors.
@@ -52,6 +53,7 @@ from bomc_bt.grid import OccupancyGrid
 from bomc_bt.path_matrix import path_length_matrix
 from bomc_bt.planner import GridPlanner
 from bomc_bt.sight import Sight, headings_for
+from bomc_bt.tour_search import improve_cycle, open_path_matrix
 from bomc_bt.traversal import TraversalPlan, or_opt_route, path_length, two_opt_route
 from bomc_bt.turn_order import end_direction, turn_order
 from bomc_bt.viewpoints import floor_mask
@@ -318,7 +320,21 @@ def tour_order(planner: GridPlanner, start_xy, points: np.ndarray, params: Trave
                              fixed_last=params.closed_tour)
         route = two_opt_route(finite, route, params.max_two_opt_passes, fixed_first=True,
                               fixed_last=params.closed_tour)
+    if params.two_opt and params.tour_kicks and len(pts) > 4:
+        route = _kicked(finite[: len(pts), : len(pts)], route, params)
     return [i - 1 for i in route[1:] if 0 < i < len(pts)], dist
+
+
+def _kicked(d: np.ndarray, route: list[int], params: TraversalParams) -> list[int]:
+    """``route`` (from place 0; with a copy of it last for a closed tour) shortened by
+    iterated local search (:mod:`bomc_bt.tour_search`)."""
+    n = len(d)
+    if params.closed_tour:
+        return improve_cycle(d, route[:-1], params.tour_kicks) + [n]
+    cycle = improve_cycle(open_path_matrix(d), route + [n], params.tour_kicks)
+    if cycle[1] == n:  # the free end read first: the other way round
+        cycle = cycle[:1] + cycle[1:][::-1]
+    return cycle[:-1] if cycle[-1] == n else route
 
 
 def order_stops(planner: GridPlanner, start_xy, views: list[Pose2D], params: TraversalParams) -> list[Pose2D]:
