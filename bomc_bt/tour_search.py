@@ -13,12 +13,14 @@ kicks, in its simplest form):
    nearest stops, and only around stops whose tour changed ("don't-look bits"). A sweep
    then costs a few operations per changed stop instead of a pass over all pairs.
 2. A kick: a double bridge (two adjacent runs of the tour swap places) within a short
-   stretch, which no 2-opt or Or-opt move undoes; local search again from there.
+   stretch, which no single 2-opt move undoes (Or-opt only when a run is three places or
+   fewer: a wasted kick); local search again from there.
 3. The kicked tour is kept when it is shorter, else the best one so far is kicked again.
 
 The random stretches come from a fixed seed, so a plan is the same every time it is made
 from the same map. Distances are taken symmetric (``(d + d.T) / 2``: driving there and back
-is the same way); a stop that cannot be reached should carry a large finite distance.
+is the same way, as :func:`bomc_bt.path_matrix.path_length_matrix` gives them); a stop that
+cannot be reached must carry a large finite distance, not inf.
 
 An open path with a fixed first stop (the robot's position) is a cycle through one more
 place, the path's free end, that is 0 from the first stop and equally far from all others
