@@ -5,7 +5,8 @@ Generates an office (``bomc world office``), builds its map once, then runs sess
 1..N with each association mode on a copy of that build (same world, same seeds, so the
 modes differ only by association) and prints, per session and mode: object F1, change
 precision / recall / F1 (overall, net changes against the world's true ones), phantom
-events, raw change events, nodes with more than one change event in the pass (flips),
+events, late and transient ones (false positives with a real change behind them: one the
+previous pass missed, one undone before the pass ended), raw change events, nodes with more than one change event in the pass (flips),
 simulated and wall pass time and the store's size.
 
     python benchmarks/bench_passes.py --size 36x28 --seed 501 --sessions 12 --churn 0.05
@@ -45,6 +46,7 @@ class PassRow:
     net_changes: int
     phantom: int
     late: int  # false positives that report a change the previous pass missed (not phantoms)
+    transient: int  # false positives that report a change undone before the pass ended (not phantoms)
     raw_changes: int
     flipping_nodes: int
     sim_s: float
@@ -85,7 +87,7 @@ def run_mode(world: Path, build_site: Path, site: Path, mode: str, sessions: int
             events = store.events(session=n)
         ov = changes.overall
         rows.append(PassRow(mode, n, f1, ov.precision, ov.recall, ov.f1, ov.gt, ov.mapped, changes.phantom,
-                            len(changes.late),
+                            len(changes.late), len(changes.transient),
                             sum(changes.raw_events.get(k, 0) for k in CHANGE_EVENT_KINDS), flipping_nodes(events),
                             result.sim_time, wall, store_megabytes(site), str(result.summary.get("outcome", ""))))
         print(format_row(rows[-1]), flush=True)
@@ -93,7 +95,8 @@ def run_mode(world: Path, build_site: Path, site: Path, mode: str, sessions: int
 
 
 HEADER = (f"{'mode':<7} {'pass':>4} {'obj F1':>6} {'chg P':>6} {'chg R':>6} {'chg F1':>6} {'true':>5} {'net':>5} "
-          f"{'phantom':>7} {'late':>4} {'raw':>5} {'flips':>5} {'sim s':>7} {'wall s':>7} {'store MB':>8} end")
+          f"{'phantom':>7} {'late':>4} {'trans':>5} {'raw':>5} {'flips':>5} {'sim s':>7} {'wall s':>7} "
+          f"{'store MB':>8} end")
 
 
 def format_row(r: PassRow) -> str:
@@ -101,8 +104,8 @@ def format_row(r: PassRow) -> str:
         return "    -" if x is None else f"{x:.3f}"
 
     return (f"{r.mode:<7} {r.session:>4} {f(r.object_f1):>6} {f(r.change_p):>6} {f(r.change_r):>6} "
-            f"{f(r.change_f1):>6} {r.true_changes:>5} {r.net_changes:>5} {r.phantom:>7} {r.late:>4} {r.raw_changes:>5} "
-            f"{r.flipping_nodes:>5} {r.sim_s:>7.0f} {r.wall_s:>7.1f} {r.store_mb:>8.2f} {r.outcome}")
+            f"{f(r.change_f1):>6} {r.true_changes:>5} {r.net_changes:>5} {r.phantom:>7} {r.late:>4} {r.transient:>5} "
+            f"{r.raw_changes:>5} {r.flipping_nodes:>5} {r.sim_s:>7.0f} {r.wall_s:>7.1f} {r.store_mb:>8.2f} {r.outcome}")
 
 
 def make_world(args: argparse.Namespace, root: Path) -> Path:

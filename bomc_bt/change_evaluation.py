@@ -40,7 +40,17 @@ pass missed (a chair taken away during pass N-1 after the robot had looked there
 gone in pass N), has a real change behind it: it is wrong for this pass (a false
 positive) but no phantom, and is counted apart (``late``). The miss stays counted in the
 previous pass. The first pass has no previous one: what it missed was no change in the
-building, so nothing reported after it is late on that account.
+building, so nothing reported after it is late on that account. A change undone within
+the previous pass (below) is late too when this pass reports its second half (a bin
+brought in and seen, then taken away after the robot had looked: this pass finds it gone).
+Changes the previous pass's net result shows are not: they were that pass's to report.
+
+**Transient**: a false positive that reports a change undone before the pass ended (a bin
+brought in when the session began and taken away during the pass, after the robot had
+looked there) reports what the building really did, only not its net result: wrong
+(a false positive), but no phantom, counted apart (``transient``). What the world did
+between the end of the previous pass and the end of this one that it no longer shows
+(:func:`undone_changes`) explains it.
 
 Session 1 has no previous pass: it is scored against the empty map, so every object
 present when it ended is an addition and ``added`` reads like the object protocol.
@@ -113,6 +123,7 @@ class ChangeResult:
     wrong: list[ObjectChange] = field(default_factory=list)  # false positives, phantoms included
     phantoms: list[ObjectChange] = field(default_factory=list)
     late: list[ObjectChange] = field(default_factory=list)  # false positives reporting the previous pass's misses
+    transient: list[ObjectChange] = field(default_factory=list)  # false positives reporting changes undone in the pass
     first_seen: int = 0  # nodes new to the map where no earlier pass looked: reported apart, not scored
     retracted: int = 0  # nodes dropped as seen too seldom to trust: reported apart, not scored
 
@@ -140,6 +151,26 @@ def true_changes(before: Mapping[str, tuple[str, np.ndarray]], after: Mapping[st
             out.append(ObjectChange("removed", name, b[0], _xyz(b[1]), None))
         if a is not None:
             out.append(ObjectChange("added", name, a[0], None, _xyz(a[1])))
+    return out
+
+
+def undone_changes(states: Sequence[Mapping[str, tuple[str, np.ndarray]]], threshold: Threshold) -> list[ObjectChange]:
+    """What the world did between the first and the last of ``states`` that the last one no
+    longer shows: each change from one state to the next, kept only at its ends where the
+    object stood neither in the first state nor in the last (a bin brought in and taken
+    away again; the middle stop of a chair moved twice)."""
+    first, last = states[0], states[-1]
+
+    def undone(name: str, p: np.ndarray | None) -> np.ndarray | None:
+        held = [s[name][1] for s in (first, last) if name in s]
+        return None if p is None or any(np.array_equal(p, h) for h in held) else p
+
+    out = []
+    for a, b in zip(states[:-1], states[1:], strict=True):
+        for c in true_changes(a, b, threshold):
+            old, new = undone(str(c.key), c.old), undone(str(c.key), c.new)
+            if old is not None or new is not None:
+                out.append(ObjectChange(c.kind, c.key, c.category, old, new))
     return out
 
 
@@ -207,11 +238,13 @@ def _phantoms(wrong: list[ObjectChange], truth: list[ObjectChange], threshold: T
 def score_changes(truth: Sequence[ObjectChange], net: Sequence[ObjectChange], threshold: Threshold,
                   session: int, previous: int | None = None,
                   raw_events: Mapping[str, int] | None = None,
-                  missed_before: Sequence[ObjectChange] = ()) -> ChangeResult:
+                  missed_before: Sequence[ObjectChange] = (), undone: Sequence[ObjectChange] = ()) -> ChangeResult:
     """Match the map's net changes to the true ones and score them per kind.
 
-    ``missed_before``: the true changes the previous pass missed, which make a false
-    positive near them late rather than a phantom."""
+    ``missed_before``: the true changes the previous pass missed (and those undone within
+    it), which make a false positive near them late rather than a phantom; ``undone``: the
+    changes undone within this pass's span (:func:`undone_changes`), which make one
+    transient."""
     kinds: dict[str, ClassScores] = {}
     matches: list[ChangeMatch] = []
     missed: list[ObjectChange] = []
@@ -232,7 +265,11 @@ def score_changes(truth: Sequence[ObjectChange], net: Sequence[ObjectChange], th
     overall = scores(sum(s.gt for s in kinds.values()), sum(s.mapped for s in kinds.values()),
                      sum(s.tp for s in kinds.values()))
     unexplained = _phantoms(wrong, list(truth), threshold)
-    phantoms = _phantoms(unexplained, list(missed_before), threshold)
-    late = [c for c in unexplained if all(c is not p for p in phantoms)]
+    lasting = _phantoms(unexplained, list(undone), threshold)
+    phantoms = _phantoms(lasting, list(missed_before), threshold)
     return ChangeResult(session, previous, kinds, overall, len(phantoms), dict(raw_events or {}),
-                        matches, missed, wrong, phantoms, late)
+                        matches, missed, wrong, phantoms, _others(lasting, phantoms), _others(unexplained, lasting))
+
+
+def _others(changes: list[ObjectChange], but: list[ObjectChange]) -> list[ObjectChange]:
+    return [c for c in changes if all(c is not b for b in but)]

@@ -27,6 +27,7 @@ from bomc_bt.change_evaluation import (
     retracted_nodes,
     score_changes,
     true_changes,
+    undone_changes,
 )
 from bomc_bt.config import Config
 from bomc_bt.errors import BomcError
@@ -50,9 +51,34 @@ def evaluate_changes(world: str | Path | World, site_dir: str | Path, session: i
     previous = max((n for n in recorded if n < session), default=None)
     before = None if previous is None else _score(world, recorded, history, previous, threshold, [])
     # the first pass is scored against the empty map: an object it missed was no change in the
-    # building, so a later pass reporting it "added" is a phantom, not a late change
-    missed_before = [] if before is None or before.previous is None else before.missed
+    # building, so a later pass reporting it "added" is a phantom, not a late change; what the
+    # building did during it (its intra-session changes) is real all the same
+    missed_before = [] if before is None else _undone(world, recorded, before.previous, previous, threshold)
+    if before is not None and before.previous is not None:
+        missed_before += before.missed
     return _score(world, recorded, history, session, threshold, missed_before)
+
+
+def _present(objects) -> dict[str, tuple[str, np.ndarray]]:
+    return {name: (o.category, np.asarray(o.position, dtype=float)) for name, o in objects.items()}
+
+
+def _undone(world: World, recorded: dict[int, SessionRecord], previous: int | None, session: int,
+            threshold: Callable[[str], float]) -> list[ObjectChange]:
+    """The changes undone between the end of pass ``previous`` (before session 1: as
+    session 1 began) and the end of pass ``session``, from each state of the building to
+    the next (:func:`~bomc_bt.change_evaluation.undone_changes`)."""
+    states = []
+    for m in range(previous or 1, session + 1):
+        ended = recorded[m].ended_stamp if m in recorded else None
+        ended = float("inf") if ended is None else ended
+        if m == previous:
+            states.append(_present(world.ground_truth(m, at=ended)))
+        else:
+            states.append(_present(world.objects_in_session(m)))
+        times = [d.at for d in world.during_changes(m) if (d.at > ended if m == previous else d.at <= ended)]
+        states += [_present(world.ground_truth(m, at=t)) for t in times]
+    return undone_changes(states, threshold)
 
 
 def _score(world: World, recorded: dict[int, SessionRecord], history: list[Event], session: int,
@@ -62,15 +88,13 @@ def _score(world: World, recorded: dict[int, SessionRecord], history: list[Event
     history = [e for e in history if e.session <= session]
 
     def truth_at_end(n: int | None) -> dict[str, tuple[str, np.ndarray]]:
-        if n is None:
-            return {}
-        present = world.ground_truth(n, at=recorded[n].ended_stamp)
-        return {name: (o.category, np.asarray(o.position, dtype=float)) for name, o in present.items()}
+        return {} if n is None else _present(world.ground_truth(n, at=recorded[n].ended_stamp))
 
     truth = true_changes(truth_at_end(previous), truth_at_end(session), threshold)
     net = reported_changes(history, previous, threshold)
     events = [e for e in history if e.session == session]
-    result = score_changes(truth, net, threshold, session, previous, raw_event_counts(events), missed_before)
+    undone = _undone(world, recorded, previous, session, threshold)
+    result = score_changes(truth, net, threshold, session, previous, raw_event_counts(events), missed_before, undone)
     result.first_seen = first_seen_count(history, previous, threshold)
     result.retracted = retracted_nodes(history, previous, threshold)
     return result
@@ -92,6 +116,7 @@ def changes_to_json(result: ChangeResult) -> dict[str, Any]:
     out["overall"] = _kind_json(result.overall)
     out["phantom"] = result.phantom
     out["late"] = len(result.late)
+    out["transient"] = len(result.transient)
     out["raw_events"] = dict(result.raw_events)
     out["first_seen"] = result.first_seen
     out["retracted"] = result.retracted
@@ -116,10 +141,12 @@ def format_changes(result: ChangeResult) -> str:
                      f"{f(s.precision):>6} {f(s.recall):>6} {f(s.f1):>6}")
     raw = ", ".join(f"{k} {v}" for k, v in result.raw_events.items())
     lines.append(f"phantom {result.phantom}; late {len(result.late)} (the previous pass's misses); "
+                 f"transient {len(result.transient)} (changes undone before the pass ended); "
                  f"first seen {result.first_seen} (new to the map, not scored); "
                  f"retracted {result.retracted} (seen too seldom to trust, not scored); "
                  f"raw events {raw or 'none'}")
-    label = {id(c): "phantom:" for c in result.phantoms} | {id(c): "late:   " for c in result.late}
+    label = ({id(c): "phantom:" for c in result.phantoms} | {id(c): "late:   " for c in result.late}
+             | {id(c): "transient:" for c in result.transient})
     lines += [f"  missed:  {describe(c)}" for c in result.missed]
     lines += [f"  {label.get(id(c), 'wrong:  ')} {describe(c)}" for c in result.wrong]
     return "\n".join(lines)

@@ -11,7 +11,7 @@ import pytest
 from shared_data import local_world
 
 from bomc_bt import cli, run
-from bomc_bt.change_evaluation import raw_event_counts, reported_changes, score_changes, true_changes
+from bomc_bt.change_evaluation import raw_event_counts, reported_changes, score_changes, true_changes, undone_changes
 from bomc_bt.config import Config
 from bomc_bt.evaluate_changes import evaluate_changes
 from bomc_bt.graph import AssociationParams, Event, Node
@@ -151,6 +151,33 @@ def test_a_change_the_previous_pass_missed_reported_now_is_late_not_a_phantom():
     assert score_changes(truth, net, d07, 2, 1).phantom == 1
 
 
+def test_what_the_world_undid_within_a_span_is_kept_only_where_neither_end_shows_it():
+    start = {"chair-1": obj("chair", 0.0), "table-1": obj("table", 5.0)}
+    states = [start,
+              {**start, "bin-1": obj("bin", 3.0)},  # a bin brought in ...
+              {**start, "bin-1": obj("bin", 3.0), "chair-1": obj("chair", 2.0)},  # a chair moved ...
+              {"chair-1": obj("chair", 9.0), "table-1": obj("table", 7.0)}]  # ... and on; the bin taken away
+    undone = undone_changes(states, d07)
+    assert sorted((c.key, tuple(c.ends()[:, 0])) for c in undone) == [("bin-1", (3.0,)), ("bin-1", (3.0,)),
+                                                                     ("chair-1", (2.0,)), ("chair-1", (2.0,))]
+    assert undone_changes([start, states[-1]], d07) == []  # the net moves themselves are not undone
+
+
+def test_a_change_undone_before_the_pass_ended_is_transient_not_a_phantom():
+    """A bin brought in when the session began and taken away during the pass, after the
+    robot had seen it: the pass reports it added, wrong against the net result (nothing
+    changed) but no ghost; the same report where no bin ever stood stays a phantom."""
+    ends = {"chair-1": obj("chair", 0.0)}
+    truth = true_changes(ends, ends, d07)
+    undone = undone_changes([ends, {**ends, "bin-1": obj("bin", 4.0)}, ends], d07)
+    for at, transient in ((4.1, 1), (9.0, 0)):
+        net = pass_two([node(1, "chair", 0.0)], [node(1, "chair", 0.0), node(2, "bin", at)],
+                       [ev("added", 2, "bin", at)])
+        r = score_changes(truth, net, d07, 2, 1, undone=undone)
+        assert counts(r, "added") == (0, 1, 0)  # a false positive either way
+        assert (len(r.transient), r.phantom) == (transient, 1 - transient) and not r.late
+
+
 def test_thresholds_are_the_categories_association_distances():
     def per_category(cat: str) -> float:
         return {"door": 0.3, "table": 1.5}.get(cat, 0.7)
@@ -238,6 +265,31 @@ def test_an_object_the_first_pass_missed_reported_added_later_is_a_phantom_not_l
         store.record([Event("added", 3, "table", at, 2, 20.0)], [Node(3, "table", at, 0.9, 2, 2)])
     r = evaluate_changes(world, tmp_path, 2, Config())
     assert r.phantom == 1 and not r.late
+
+
+def test_a_bin_there_and_gone_between_two_passes_is_transient_then_late_in_bomc_evaluate(tmp_path, capsys):
+    """small_house's trash-bin-2 comes with session 2 and goes 36 s into session 3. Session 2
+    is never run: pass 3 (ended at 100 s) sees the bin early and reports it added --
+    transient, since it was gone when the pass ended; pass 4 finds it gone and reports the
+    removal -- late, not a phantom. A removal where no bin ever stood stays a phantom."""
+    path = local_world("small_house")
+    world = load_world(path)
+    _site_with_sessions(tmp_path, {1: 100.0, 3: 100.0, 4: 100.0})
+    bin_at, elsewhere = np.array([1.625, 0.675, 0.3]), np.array([-6.0, 3.0, 0.3])
+    with SiteStore(tmp_path / "site.db") as store:
+        bins = [Node(5, "trash bin", bin_at, 0.9, 3, 3), Node(6, "trash bin", elsewhere, 0.9, 1, 1)]
+        store.record([Event("added", 6, "trash bin", elsewhere, 1, 10.0)], bins[1:])
+        store.record([Event("added", 5, "trash bin", bin_at, 3, 20.0)], bins)
+        store.record([Event("removed", 5, "trash bin", bin_at, 4, 20.0),
+                      Event("removed", 6, "trash bin", elsewhere, 4, 30.0)], bins)
+    third = evaluate_changes(world, tmp_path, 3, Config())
+    assert [c.key for c in third.transient] == [5] and third.phantom == 0
+    fourth = evaluate_changes(world, tmp_path, 4, Config())
+    assert [c.key for c in fourth.late] == [5] and [c.key for c in fourth.phantoms] == [6]
+    out = json.loads(_evaluate_json(path, tmp_path, 3, capsys))["changes"]
+    assert (out["transient"], out["phantom"], out["added"]["fp"]) == (1, 0, 1)
+    assert cli.main(["evaluate", "--world", str(path), "--site", str(tmp_path), "--session", "3"]) == 0
+    assert "  transient: added node 5 (trash bin)" in capsys.readouterr().out
 
 
 def test_session_1_is_scored_against_the_empty_map_and_a_skipped_session_is_spanned(tmp_path):
