@@ -20,7 +20,10 @@ It prints, per floor, the mean and lowest per-session change F1 and the summed t
 fn for each pairing radius, and the shares of true moves farther than ``move_radius``:
     python benchmarks/bench_change_ceiling.py --office 36x28:201:12 --office 93x90:301:3
 ``--per-session`` adds each session's ceiling at the configured radius, to set beside the
-change F1 per pass that ``bench_passes.py`` prints for the same world. The radii compared
+change F1 per pass that ``bench_passes.py`` prints for the same world. ``--world`` takes any
+world file instead, e.g. a furnished real map that ``bench_passes.py --map M --keep DIR``
+left in ``DIR/world.yaml``:
+    python benchmarks/bench_change_ceiling.py --world DIR/world.yaml --per-session The radii compared
 default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
 """
 
@@ -107,11 +110,12 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--office", action="append", default=[], metavar="WxH:SEED:SESSIONS",
                    help="a generated office (default: 36x28:201:12 and 93x90:301:3)")
+    p.add_argument("--world", action="append", default=[], metavar="WORLD.yaml", help="an existing world file")
     p.add_argument("--radius", action="append", type=float, help="pairing radius, m (repeatable; inf: unbounded)")
     p.add_argument("--per-session", action="store_true",
                    help="also print each session's ceiling at the configured relocation_radius")
     args = p.parse_args(argv)
-    offices = args.office or ["36x28:201:12", "93x90:301:3"]
+    offices = args.office or ([] if args.world else ["36x28:201:12", "93x90:301:3"])
     radii = args.radius or [0.0, 3.0, 5.0, 8.0, 12.0, float("inf")]
     config = load_config()
     print(f"# ideal reporter: move_radius {config.association.move_radius} m, configured relocation_radius "
@@ -119,14 +123,17 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'floor':16} {'sessions':>8} {'changes':>7} {'moves':>5} {'far':>4} {'radius m':>8} "
           f"{'mean F1':>7} {'min F1':>6} {'tp':>4} {'fp':>4} {'fn':>4}")
     with tempfile.TemporaryDirectory() as tmp:
+        floors = [(str(w), Path(w)) for w in args.world]
         for spec in offices:
             size, seed, sessions = spec.split(":")
             width, height = (float(v) for v in size.lower().split("x"))
             path = Path(tmp) / f"office-{seed}.yaml"
             generate_office(OfficeParams(width=width, height=height, seed=int(seed), sessions=int(sessions)), path)
+            floors.append((f"{size} s{seed}", path))
+        for name, path in floors:
             n_steps, n_changes, n_moves, n_far, rows = floor_rows(path, radii, config)
             for radius, mean, low, tp, fp, fn in rows:
-                print(f"{size + ' s' + seed:16} {n_steps:>8} {n_changes:>7} {n_moves:>5} {n_far:>4} "
+                print(f"{name:16} {n_steps:>8} {n_changes:>7} {n_moves:>5} {n_far:>4} "
                       f"{radius:>8.1f} {mean:>7.3f} {low:>6.3f} {tp:>4} {fp:>4} {fn:>4}", flush=True)
             if args.per_session:
                 print(per_session_line(path, config), flush=True)
