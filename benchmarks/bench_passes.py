@@ -6,8 +6,9 @@ Generates an office (``bomc world office``), builds its map once, then runs sess
 modes differ only by association) and prints, per session and mode: object F1, change
 precision / recall / F1 (overall, net changes against the world's true ones), phantom
 events, late and transient ones (false positives with a real change behind them: one the
-previous pass missed, one undone before the pass ended), raw change events, nodes with more than one change event in the pass (flips),
-simulated and wall pass time and the store's size.
+previous pass missed, one undone before the pass ended), raw change events, nodes with
+more than one change event in the pass (flips), simulated and wall pass time and the
+store's size.
 
     python benchmarks/bench_passes.py --size 36x28 --seed 501 --sessions 12 --churn 0.05
     python benchmarks/bench_passes.py --size 36x28 --seed 501 --sessions 3 --static --modes robust
