@@ -157,18 +157,18 @@ def true_changes(before: Mapping[str, tuple[str, np.ndarray]], after: Mapping[st
 def undone_changes(states: Sequence[Mapping[str, tuple[str, np.ndarray]]], threshold: Threshold) -> list[ObjectChange]:
     """What the world did between the first and the last of ``states`` that the last one no
     longer shows: each change from one state to the next, kept only at its ends where the
-    object stood neither in the first state nor in the last (a bin brought in and taken
-    away again; the middle stop of a chair moved twice)."""
+    object (under its name and category) stood neither in the first state nor in the last
+    (a bin brought in and taken away again; the middle stop of a chair moved twice)."""
     first, last = states[0], states[-1]
 
-    def undone(name: str, p: np.ndarray | None) -> np.ndarray | None:
-        held = [s[name][1] for s in (first, last) if name in s]
+    def undone(name: str, category: str, p: np.ndarray | None) -> np.ndarray | None:
+        held = [s[name][1] for s in (first, last) if name in s and s[name][0] == category]
         return None if p is None or any(np.array_equal(p, h) for h in held) else p
 
     out = []
     for a, b in zip(states[:-1], states[1:], strict=True):
         for c in true_changes(a, b, threshold):
-            old, new = undone(str(c.key), c.old), undone(str(c.key), c.new)
+            old, new = undone(str(c.key), c.category, c.old), undone(str(c.key), c.category, c.new)
             if old is not None or new is not None:
                 out.append(ObjectChange(c.kind, c.key, c.category, old, new))
     return out

@@ -65,10 +65,11 @@ def _present(objects) -> dict[str, tuple[str, np.ndarray]]:
 
 def _undone(world: World, recorded: dict[int, SessionRecord], previous: int | None, session: int,
             threshold: Callable[[str], float]) -> list[ObjectChange]:
-    """The changes undone between the end of pass ``previous`` (before session 1: as
-    session 1 began) and the end of pass ``session``, from each state of the building to
-    the next (:func:`~bomc_bt.change_evaluation.undone_changes`)."""
-    states = []
+    """The changes undone between the end of pass ``previous`` (before session 1: the empty
+    map it is scored against, so what stood when session 1 began and went during it counts)
+    and the end of pass ``session``, from each state of the building to the next
+    (:func:`~bomc_bt.change_evaluation.undone_changes`)."""
+    states = [{}] if previous is None else []
     for m in range(previous or 1, session + 1):
         ended = recorded[m].ended_stamp if m in recorded else None
         ended = float("inf") if ended is None else ended

@@ -161,6 +161,9 @@ def test_what_the_world_undid_within_a_span_is_kept_only_where_neither_end_shows
     assert sorted((c.key, tuple(c.ends()[:, 0])) for c in undone) == [("bin-1", (3.0,)), ("bin-1", (3.0,)),
                                                                      ("chair-1", (2.0,)), ("chair-1", (2.0,))]
     assert undone_changes([start, states[-1]], d07) == []  # the net moves themselves are not undone
+    # a name reused for another category at the same place: the bin in between was real
+    swapped = undone_changes([{"x": obj("chair", 1.0)}, {"x": obj("bin", 1.0)}, {}], d07)
+    assert [(c.category, tuple(c.ends()[:, 0])) for c in swapped] == [("bin", (1.0,)), ("bin", (1.0,))]
 
 
 def test_a_change_undone_before_the_pass_ended_is_transient_not_a_phantom():
@@ -290,6 +293,30 @@ def test_a_bin_there_and_gone_between_two_passes_is_transient_then_late_in_bomc_
     assert (out["transient"], out["phantom"], out["added"]["fp"]) == (1, 0, 1)
     assert cli.main(["evaluate", "--world", str(path), "--site", str(tmp_path), "--session", "3"]) == 0
     assert "  transient: added node 5 (trash bin)" in capsys.readouterr().out
+
+
+def test_an_object_taken_away_during_pass_1_after_it_was_seen_is_transient_then_late(tmp_path):
+    """Pass 1 is scored against the empty map, so a cabinet that stood when session 1 began
+    and went 30 s into it is a change undone within pass 1: its report there is transient,
+    and pass 2 finding it gone is late -- neither is a phantom."""
+    source = local_world("small_house")
+    text = source.read_text()
+    line = next(x for x in text.splitlines() if x.startswith("map:"))
+    text = text.replace(line, f"map: {load_world(source).map_path}")
+    text = text.replace("during:\n", "during:\n- session: 1\n  at: 30.0\n  remove: [cabinet-1]\n", 1)
+    path = tmp_path / "world.yaml"
+    path.write_text(text)
+    world = load_world(path)
+    site = tmp_path / "site"
+    _site_with_sessions(site, {1: 100.0, 2: 100.0})
+    at = np.array([7.925, 2.025, 0.6])
+    with SiteStore(site / "site.db") as store:
+        cabinet = Node(4, "cabinet", at, 0.9, 1, 1)
+        store.record([Event("added", 4, "cabinet", at, 1, 20.0)], [cabinet])
+        store.record([Event("removed", 4, "cabinet", at, 2, 20.0)], [cabinet])
+    first, second = (evaluate_changes(world, site, n, Config()) for n in (1, 2))
+    assert [c.key for c in first.transient] == [4] and first.phantom == 0
+    assert [c.key for c in second.late] == [4] and second.phantom == 0
 
 
 def test_session_1_is_scored_against_the_empty_map_and_a_skipped_session_is_spanned(tmp_path):
