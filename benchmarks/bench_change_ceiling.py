@@ -23,8 +23,8 @@ fn for each pairing radius, and the shares of true moves farther than ``move_rad
 change F1 per pass that ``bench_passes.py`` prints for the same world. ``--world`` takes any
 world file instead, e.g. a furnished real map that ``bench_passes.py --map M --keep DIR``
 left in ``DIR/world.yaml``:
-    python benchmarks/bench_change_ceiling.py --world DIR/world.yaml --per-session The radii compared
-default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
+    python benchmarks/bench_change_ceiling.py --world DIR/world.yaml --per-session
+The radii compared default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
 """
 
 from __future__ import annotations
