@@ -155,11 +155,7 @@ def _drop_redundant(planner: GridPlanner, sight: Sight, nodes: KnownTargets, sta
     pruned = drop_redundant_stops([views[i] for i in tour], dist[np.ix_(rows, rows)], nodes.n_targets,
                                   leg_sight, min_count, params.closed_tour)
     kept = [tour[t] for t in pruned.kept]
-    # Which stop faces which floor: each the floor it sees first in a cover of what is left.
-    picked, gained = greedy_cover([views[i] for i in kept], xy[kept], nodes.n_targets, start_xy,
-                                  params.stop_cost, 1, pruned.en_route)
-    by_stop = dict(zip(picked, gained, strict=True))
-    credited = [by_stop.get(t, np.zeros(0, dtype=np.int64)) for t in range(len(kept))]
+    credited = _faced(views, xy, kept, nodes.n_targets, start_xy, params.stop_cost, pruned.en_route)
     keep_rows = [0] + [rows[t + 1] for t in pruned.kept]
     return kept, credited, list(range(len(kept))), dist[np.ix_(keep_rows, keep_rows)], pruned.en_route
 
@@ -173,9 +169,13 @@ def _look_near_at_nodes(planner: GridPlanner, sight: Sight, nodes: KnownTargets,
     The legs the cover credited (the first tour's) are not the final tour's, so a node seen
     from near only on a leg that is gone would get no near look: each round adds the stops
     that see such nodes (greedy, every node worth a stop), orders the tour again and
-    computes what its legs see. Returns chosen, credited, order, dist, and what stops and
-    legs see."""
+    computes what its legs see. The floor the old legs saw may lie off the new ones, so the
+    stops are then credited again with what each is to face (planned with the 437 objects of
+    a 93 x 90 m floor as nodes, the tour left 278 m² of its covered floor unfaced, against
+    71 m² without them: floor the gap viewpoints then drove to, pass after pass). Returns chosen, credited, order (the tour's, then 0..n-1), dist, and
+    what stops and legs see."""
     node_views = [v[v >= nodes.n_floor] for v in views]
+    en_route = None
     for _ in range(rounds):
         extra, gained = greedy_cover(node_views, xy, nodes.n_targets, start_xy, params.stop_cost, 1, covered)
         if not extra:
@@ -184,11 +184,25 @@ def _look_near_at_nodes(planner: GridPlanner, sight: Sight, nodes: KnownTargets,
         order, dist = tour_order(planner, start_xy, xy[chosen], params)
         at = [np.asarray(start_xy, dtype=float)] + [xy[chosen[j]] for j in order]
         paths = [_leg(planner, a, b) for a, b in zip(at[:-1], at[1:], strict=True)]
-        covered = np.zeros(nodes.n_targets, dtype=bool)
-        covered[nodes.along(sight, paths, params.drive_by_step, hfov)] = True
+        en_route = np.zeros(nodes.n_targets, dtype=bool)
+        en_route[nodes.along(sight, paths, params.drive_by_step, hfov)] = True
+        covered = en_route.copy()
         for i in chosen:
             covered[views[i]] = True
+    if en_route is not None:  # the tour was ordered again: its legs are not the ones credited
+        tour, rows = [chosen[j] for j in order], [0] + [j + 1 for j in order]
+        credited = _faced(views, xy, tour, nodes.n_targets, start_xy, params.stop_cost, en_route)
+        chosen, order, dist = tour, list(range(len(tour))), dist[np.ix_(rows, rows)]
     return chosen, credited, order, dist, covered
+
+
+def _faced(views: list[np.ndarray], xy: np.ndarray, tour: list[int], n_targets: int, start_xy, stop_cost: float,
+           en_route: np.ndarray) -> list[np.ndarray]:
+    """Which stop of ``tour`` faces which targets (its headings turn to them): each the ones it
+    sees first in a cover of what the tour's legs, facing ahead, do not see."""
+    picked, gained = greedy_cover([views[i] for i in tour], xy[tour], n_targets, start_xy, stop_cost, 1, en_route)
+    by_stop = dict(zip(picked, gained, strict=True))
+    return [by_stop.get(t, np.zeros(0, dtype=np.int64)) for t in range(len(tour))]
 
 
 _LEG_MARGIN = 4.0  # m of map around a leg's two ends that its path is first searched in
