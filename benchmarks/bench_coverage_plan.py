@@ -6,8 +6,9 @@ any saved sites given (their map and the first pose of their trajectory) -- with
 driving, and prints one row per floor: stops, headings (waypoints), the tour's path
 length (the planner's legs, dock to the last stop, as the robot would drive them), the
 floor the plan's model of sight sees (stops all around, legs facing ahead, measured on the
-final tour), and the CPU seconds planning took. ``--set`` changes traversal parameters,
-e.g. to compare with the stops no longer dropped:
+final tour), the floor it faces (the same with each stop seen only through its headings'
+field of view, as the robot turns), and the CPU seconds planning took. ``--set`` changes
+traversal parameters, e.g. to compare with the stops no longer dropped:
 
     python benchmarks/bench_coverage_plan.py --office 93x90:41 --office 36x28:7
     python benchmarks/bench_coverage_plan.py --office 93x90:41 --set drop_redundant=false
@@ -54,23 +55,34 @@ from bomc_bt.viewpoints import floor_mask
 from bomc_bt.world import load_world
 
 
-def seen_share(grid, start: Pose2D, stops: list, params, planner_params, view_range: float) -> float:
-    """Share of the floor some stop (all around) or leg (facing ahead) of the tour sees."""
+def seen_share(grid, start: Pose2D, plan, params, planner_params, view_range: float) -> tuple[float, float]:
+    """Shares of the floor the tour sees: (stops all around, stops facing their headings),
+    both with the legs driven facing ahead. The robot turns only to a stop's headings, so
+    floor the first share counts and the second does not is left to the gap viewpoints."""
     k = max(1, int(round(params.target_step / grid.resolution)))
     floor = floor_mask(grid, params.shadow)[::k, ::k]
     sight = Sight(grid, floor, k, view_range, params.min_range, params.shadow)
     planner = GridPlanner(grid, planner_params)
+    stops = plan.viewpoints
     nodes = [np.asarray(start.xy, float)] + [np.asarray(p, float) for p in stops]
     paths = [_leg(planner, a, b) for a, b in zip(nodes[:-1], nodes[1:], strict=True)]
-    seen = np.zeros(floor.size, dtype=bool)
-    seen[along_paths(sight, paths, params.drive_by_step, math.radians(params.hfov_deg))] = True
+    hfov = math.radians(params.hfov_deg)
+    around = np.zeros(floor.size, dtype=bool)
+    around[along_paths(sight, paths, params.drive_by_step, hfov)] = True
+    facing = around.copy()
     if stops:
-        pts = np.asarray(stops, float)
-        rows, cols = grid.world_to_cell(pts[:, 0], pts[:, 1])
-        places = np.stack([np.round(rows / k), np.round(cols / k)], axis=1).astype(np.int64)
-        for view in sight.visible(places):
-            seen[view] = True
-    return float(seen.sum() / max(floor.sum(), 1))
+        for view in sight.visible(_places(grid, np.asarray(stops, float), k)):
+            around[view] = True
+        poses = np.array([(w.x, w.y, w.yaw) for w in plan.plan.waypoints], dtype=float)
+        for view in sight.visible(_places(grid, poses[:, :2], k), poses[:, 2], hfov):
+            facing[view] = True
+    total = max(floor.sum(), 1)
+    return float(around.sum() / total), float(facing.sum() / total)
+
+
+def _places(grid, xy: np.ndarray, k: int) -> np.ndarray:
+    rows, cols = grid.world_to_cell(xy[:, 0], xy[:, 1])
+    return np.stack([np.round(rows / k), np.round(cols / k)], axis=1).astype(np.int64)
 
 
 def leg_length(grid, start: Pose2D, stops: list, planner_params) -> float:
@@ -152,7 +164,8 @@ def main(argv: list[str] | None = None) -> int:
     reach = config.projection.expect_range if args.reach is None else args.reach
     if not 0.0 < reach <= 30.0:
         ap.error("--reach must be in (0, 30] m")
-    print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'plan cpu s':>10s} "
+    print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'faced':>6s} "
+          f"{'plan cpu s':>10s} "
           f"{'near':>9s} {'turn rad':>8s}")
     with tempfile.TemporaryDirectory() as tmp:
         for name, map_yaml, start, known in floors(args, Path(tmp)):
@@ -162,11 +175,12 @@ def main(argv: list[str] | None = None) -> int:
                                  config.projection.miss_full_range)
             cpu = time.process_time() - began
             km = leg_length(grid, start, plan.viewpoints, config.sim.planner) / 1000
-            seen = seen_share(grid, start, plan.viewpoints, params, config.sim.planner, reach)
+            seen, faced = seen_share(grid, start, plan, params, config.sim.planner, reach)
             stops, headings = len(plan.viewpoints), len(plan.plan.waypoints)
             near = f"{plan.known_near}/{plan.known}"
             turn = turning(grid, start, plan.plan.waypoints, config.sim.planner)
-            print(f"{name:18s} {stops:6d} {headings:8d} {km:8.3f} {seen:10.3f} {cpu:10.1f} {near:>9s} {turn:8.0f}")
+            print(f"{name:18s} {stops:6d} {headings:8d} {km:8.3f} {seen:10.3f} {faced:6.3f} {cpu:10.1f} "
+                  f"{near:>9s} {turn:8.0f}")
     return 0
 
 
