@@ -172,8 +172,8 @@ def _look_near_at_nodes(planner: GridPlanner, sight: Sight, nodes: KnownTargets,
     computes what its legs see. The floor the old legs saw may lie off the new ones, so the
     stops are then credited again with what each is to face (planned with the 437 objects of
     a 93 x 90 m floor as nodes, the tour left 278 m² of its covered floor unfaced, against
-    71 m² without them: floor the gap viewpoints then drove to, pass after pass). Returns chosen, credited, order (the tour's, then 0..n-1), dist, and
-    what stops and legs see."""
+    71 m² without them: floor the gap viewpoints then drove to, pass after pass). Returns
+    chosen, credited, order (the tour's, then 0..n-1), dist, and what stops and legs see."""
     node_views = [v[v >= nodes.n_floor] for v in views]
     en_route = None
     for _ in range(rounds):
