@@ -49,7 +49,7 @@ from bomc_bt.coverage_plan import _leg, plan_coverage
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import load_map
 from bomc_bt.planner import GridPlanner
-from bomc_bt.sight import Sight, along_paths
+from bomc_bt.sight import Sight, along_paths, faced, lattice_places
 from bomc_bt.turn_order import end_direction
 from bomc_bt.viewpoints import floor_mask
 from bomc_bt.world import load_world
@@ -69,20 +69,13 @@ def seen_share(grid, start: Pose2D, plan, params, planner_params, view_range: fl
     hfov = math.radians(params.hfov_deg)
     around = np.zeros(floor.size, dtype=bool)
     around[along_paths(sight, paths, params.drive_by_step, hfov)] = True
-    facing = around.copy()
     if stops:
-        for view in sight.visible(_places(grid, np.asarray(stops, float), k)):
+        for view in sight.visible(lattice_places(sight, np.asarray(stops, float))):
             around[view] = True
-        poses = np.array([(w.x, w.y, w.yaw) for w in plan.plan.waypoints], dtype=float)
-        for view in sight.visible(_places(grid, poses[:, :2], k), poses[:, 2], hfov):
-            facing[view] = True
+    poses = np.array([(w.x, w.y, w.yaw) for w in plan.plan.waypoints], dtype=float).reshape(-1, 3)
+    facing = faced(sight, paths, poses, params.drive_by_step, hfov)
     total = max(floor.sum(), 1)
-    return float(around.sum() / total), float(facing.sum() / total)
-
-
-def _places(grid, xy: np.ndarray, k: int) -> np.ndarray:
-    rows, cols = grid.world_to_cell(xy[:, 0], xy[:, 1])
-    return np.stack([np.round(rows / k), np.round(cols / k)], axis=1).astype(np.int64)
+    return float(around.sum() / total), float(len(facing) / total)
 
 
 def leg_length(grid, start: Pose2D, stops: list, planner_params) -> float:
@@ -165,8 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     if not 0.0 < reach <= 30.0:
         ap.error("--reach must be in (0, 30] m")
     print(f"{'floor':18s} {'stops':>6s} {'headings':>8s} {'path km':>8s} {'floor seen':>10s} {'faced':>6s} "
-          f"{'plan cpu s':>10s} "
-          f"{'near':>9s} {'turn rad':>8s}")
+          f"{'plan cpu s':>10s} {'near':>9s} {'turn rad':>8s}")
     with tempfile.TemporaryDirectory() as tmp:
         for name, map_yaml, start, known in floors(args, Path(tmp)):
             grid = load_map(map_yaml)

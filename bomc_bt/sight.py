@@ -121,12 +121,26 @@ def along_paths(sight: Sight, paths: list[np.ndarray], step: float, hfov: float)
     if not xy:
         return np.zeros(0, dtype=np.int64)
     pts, yaw = np.vstack(xy), np.concatenate(heading)
-    rows, cols = sight.grid.world_to_cell(pts[:, 0], pts[:, 1])
-    h, w = sight.floor.shape
-    places = np.stack([np.clip(np.round(rows / sight.lattice), 0, h - 1),
-                       np.clip(np.round(cols / sight.lattice), 0, w - 1)], axis=1).astype(np.int64)
-    seen = sight.visible(places, yaw, hfov)
+    seen = sight.visible(lattice_places(sight, pts), yaw, hfov)
     return np.unique(np.concatenate(seen)) if seen else np.zeros(0, dtype=np.int64)
+
+
+def lattice_places(sight: Sight, xy: np.ndarray) -> np.ndarray:
+    """(K, 2) lattice (i, j) of map points (K, 2): each at its nearest place on the raster."""
+    rows, cols = sight.grid.world_to_cell(xy[:, 0], xy[:, 1])
+    h, w = sight.floor.shape
+    return np.stack([np.clip(np.round(rows / sight.lattice), 0, h - 1),
+                     np.clip(np.round(cols / sight.lattice), 0, w - 1)], axis=1).astype(np.int64)
+
+
+def faced(sight: Sight, paths: list[np.ndarray], poses: np.ndarray, step: float, hfov: float) -> np.ndarray:
+    """Flat raster indices of the targets a tour shows the camera: along ``paths`` facing
+    ahead, and at each pose (K, 3: x, y, yaw) only within ``hfov`` of its yaw -- the robot
+    turns to a stop's headings, not all around, so this is less than what the stops see."""
+    seen = [along_paths(sight, paths, step, hfov)]
+    if len(poses):
+        seen += sight.visible(lattice_places(sight, poses[:, :2]), poses[:, 2], hfov)
+    return np.unique(np.concatenate(seen)).astype(np.int64)
 
 
 def headings_for(bearings: np.ndarray, hfov: float, min_count: int, max_headings: int) -> list[float]:

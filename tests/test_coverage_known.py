@@ -11,7 +11,7 @@ from test_coverage_plan import DOCK, RANGE, office, sees
 from bomc_bt.algorithm_params import TraversalParams
 from bomc_bt.coverage_plan import _leg, plan_coverage
 from bomc_bt.planner import GridPlanner
-from bomc_bt.sight import Sight, along_paths
+from bomc_bt.sight import Sight, faced
 from bomc_bt.viewpoints import floor_mask
 
 CLOSE = 2.5  # projection.miss_full_range's default
@@ -52,16 +52,11 @@ def faced_floor(grid, plan) -> np.ndarray:
     params = TraversalParams()
     k = max(1, round(params.target_step / grid.resolution))
     sight = Sight(grid, floor_mask(grid, params.shadow)[::k, ::k], k, RANGE, params.min_range, params.shadow)
-    hfov = math.radians(params.hfov_deg)
     at = [np.asarray(DOCK.xy)] + [np.asarray(p) for p in plan.viewpoints]
     legs = [_leg(GridPlanner(grid), a, b) for a, b in zip(at[:-1], at[1:], strict=True)]
-    seen = np.zeros(plan.covered.size, dtype=bool)
-    seen[along_paths(sight, legs, params.drive_by_step, hfov)] = True
     poses = np.array([(w.x, w.y, w.yaw) for w in plan.plan.waypoints])
-    rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
-    places = np.stack([np.round(rows / k), np.round(cols / k)], axis=1).astype(np.int64)
-    for view in sight.visible(places, poses[:, 2], hfov):
-        seen[view] = True
+    seen = np.zeros(plan.covered.size, dtype=bool)
+    seen[faced(sight, legs, poses, params.drive_by_step, math.radians(params.hfov_deg))] = True
     return seen.reshape(plan.covered.shape)
 
 
