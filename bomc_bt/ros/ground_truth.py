@@ -90,6 +90,18 @@ class GroundTruthChannel:
         """Both the instance image and its info of the camera image at ``stamp`` are here."""
         return self._entry(stamp) is not None
 
+    def lost(self, stamp: float) -> bool:
+        """The ground truth of a newer image is whole but not that of ``stamp``.
+
+        Each topic arrives in order, so the message of ``stamp`` will never come: a publisher
+        or subscriber queue overran on a loaded machine. Its camera frame is skipped rather
+        than waited for (``ros.frame_timeout``) and the mission failed for one lost message.
+        """
+        key = round(stamp, 6)
+        with self._lock:
+            newer = [entry for k, entry in self._entries.items() if k > key]
+        return self._entry(stamp) is None and any("image" in e and "info" in e for e in newer)
+
     def attach(self, frame: RGBDFrame) -> SimFrame:
         """``frame`` with its ground truth (once :meth:`ready` says it is here)."""
         entry = self._entry(frame.stamp)

@@ -288,6 +288,10 @@ class RosRobot:
         T_map_base = self._lookup(p.map_frame, p.base_frame, header_stamp)
         T_base_camera = self._lookup(p.base_frame, camera, header_stamp)
         truth_missing = self.ground_truth is not None and not self.ground_truth.ready(pending["stamp"])
+        if truth_missing and self.ground_truth.lost(pending["stamp"]):
+            self._pending = None  # the next call takes a newer pair
+            self.rospy.logwarn(f"bomc: the instance image of {pending['stamp']:.2f} s was lost; frame skipped")
+            return None
         if T_map_base is None or T_base_camera is None or truth_missing:
             if waited > p.frame_timeout:
                 self._pending = None
@@ -295,11 +299,7 @@ class RosRobot:
                     raise MissionFailed(
                         f"no instance image on {p.instances_topic} for the image at {pending['stamp']:.2f} s"
                     )
-                missing = (
-                    f"{p.map_frame} <- {p.base_frame}"
-                    if T_map_base is None
-                    else f"{p.base_frame} <- {camera}"
-                )
+                missing = f"{p.map_frame} <- {p.base_frame}" if T_map_base is None else f"{p.base_frame} <- {camera}"
                 raise MissionFailed(
                     f"no tf {missing} at the image stamp {pending['stamp']:.2f} s within "
                     f"{p.frame_timeout:.0f} s (ros.map_frame / ros.base_frame / ros.camera_frame)"

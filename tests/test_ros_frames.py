@@ -1,0 +1,119 @@
+"""``RosRobot.frame`` pairs a camera image with the sim bridge's ground truth, message by message.
+
+The whole path runs through a real roscore in ``test_ros.py``; these tests pin what a
+loaded machine does to it now and then, which a real roscore shows only by chance: the
+instance image of one camera frame is dropped by a queue that overran, or comes late.
+Messages are delivered here by hand, so "lost" and "late" are exact.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+from collections import deque
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bomc_bt.errors import BomcError, MissionFailed
+from bomc_bt.ros.params import RosParams
+
+try:
+    from bomc_bt.ros import import_ros
+
+    rospy = import_ros()
+    from sensor_msgs.msg import CameraInfo, Image
+    from std_msgs.msg import String
+
+    from bomc_bt.ros.convert import encode_depth
+    from bomc_bt.ros.ground_truth import GroundTruthChannel, info_topic
+    from bomc_bt.ros.robot import RosRobot
+except (BomcError, ImportError) as exc:  # no ROS 1 Python packages on this machine
+    pytest.skip(f"ROS 1 is not importable: {exc}", allow_module_level=True)
+
+TOPIC = "/bomc_sim/instances"
+H, W = 4, 6
+
+
+class Camera:
+    """A RosRobot without a node: its camera and ground-truth callbacks fed by the test."""
+
+    def __init__(self) -> None:
+        self.callbacks: dict[str, object] = {}
+        self.warnings: list[str] = []
+        self.clock = 0.0
+        robot = RosRobot.__new__(RosRobot)
+        robot.params = RosParams(instances_topic=TOPIC, frame_timeout=2.0)
+        robot.rospy = SimpleNamespace(logwarn=self.warnings.append)
+        robot._lock = threading.Lock()
+        robot._rgb, robot._depth = deque(maxlen=30), deque(maxlen=30)
+        robot._pending, robot._last_stamp, robot._image_seen_at = None, -math.inf, {}
+        robot._info = CameraInfo(height=H, width=W, K=[5.0, 0, 3, 0, 5.0, 2, 0, 0, 1])
+        robot._lookup = lambda *_args: np.eye(4)
+        robot.now = lambda: self.clock
+        robot.ground_truth = GroundTruthChannel(rospy, TOPIC, self._subscribe)
+        self.robot = robot
+
+    def _subscribe(self, topic, _type, callback, **_kwargs):
+        self.callbacks[topic] = callback
+        return SimpleNamespace(unregister=lambda: None)
+
+    def image(self, t: float) -> None:
+        """The bridge's RGB and depth images stamped ``t``."""
+        depth, step = encode_depth(np.full((H, W), 2.0, np.float32), "32FC1")
+        for queue, encoding, data, row in (
+            (self.robot._depth, "32FC1", depth, step),
+            (self.robot._rgb, "rgb8", bytes(H * W * 3), W * 3),
+        ):
+            queue.append(self._msg(t, encoding, data, row))
+
+    def truth(self, t: float) -> None:
+        """The instance image of ``t`` and its info record."""
+        instances = np.full((H, W), 7, "<i4")
+        self.callbacks[TOPIC](self._msg(t, "32SC1", instances.tobytes(), W * 4))
+        info = {"stamp": t, "categories": {"7": "chair"}, "unoccluded": {"7": H * W}}
+        self.callbacks[info_topic(TOPIC)](String(data=json.dumps(info)))
+
+    @staticmethod
+    def _msg(t: float, encoding: str, data: bytes, step: int) -> Image:
+        msg = Image(height=H, width=W, encoding=encoding, is_bigendian=0, step=step, data=data)
+        msg.header.stamp = rospy.Time.from_sec(t)
+        return msg
+
+
+def test_a_frame_whose_instance_image_was_lost_is_skipped_for_the_next_one():
+    camera = Camera()
+    camera.clock = 2.0
+    camera.image(2.0)
+    assert camera.robot.frame() is None  # waiting for the ground truth of 2.0 s
+    camera.clock = 2.2
+    camera.image(2.2)
+    camera.truth(2.2)  # the instance image of 2.0 s never comes: a queue dropped it
+    frames = [camera.robot.frame() for _ in range(3)]
+    got = [f for f in frames if f is not None]
+    assert len(got) == 1 and got[0].stamp == pytest.approx(2.2)
+    assert got[0].instance_categories == {7: "chair"}
+    assert any("2.00 s was lost" in w for w in camera.warnings)
+
+
+def test_a_late_instance_image_is_waited_for_not_skipped():
+    camera = Camera()
+    camera.clock = 2.0
+    camera.image(2.0)
+    assert camera.robot.frame() is None  # its ground truth is not here yet
+    camera.clock = 3.5
+    camera.truth(2.0)
+    frame = camera.robot.frame()
+    assert frame is not None and frame.stamp == pytest.approx(2.0) and not camera.warnings
+
+
+def test_no_instance_image_at_all_is_an_error_once_the_frame_timeout_passed():
+    camera = Camera()
+    camera.clock = 2.0
+    camera.image(2.0)
+    assert camera.robot.frame() is None
+    camera.clock = 4.5
+    with pytest.raises(MissionFailed, match="no instance image on /bomc_sim/instances for the image at 2.00 s"):
+        camera.robot.frame()
