@@ -29,9 +29,11 @@ if [ ! -x .venv/bin/python ]; then
 fi
 
 stamp=.venv/.bomc-installed
-if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+# constraints.txt pins every package's version: the same arithmetic (numpy, OpenCV) on any
+# machine set up later, so benchmark numbers and CI reproduce.
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ constraints.txt -nt "$stamp" ]; then
   .venv/bin/python -m pip install -q --upgrade pip >/dev/null
-  .venv/bin/python -m pip install -q -e ".[test]"
+  .venv/bin/python -m pip install -q -c constraints.txt -e ".[test]"
   touch "$stamp"
 fi
 # Optional system packages: ROS 1 (Debian's, for --ros, sim-ros and tests/test_ros.py),
