@@ -49,19 +49,17 @@ Both must hold for a chair to count as big: its footprints reach that far where 
 over the chair beside, and its whole views stay near delta_c (0.56-0.74 m on the 36 x 28 m
 offices measured, where tables' reached 0.57-1.61 m).
 
-Two parts make one object of the category's size in both directions: in a big category the
-joint box is also no wider across than three in four of the footprints of its nodes that are
-no parts (their shorter sides). Doors are big where one is seen whole (0.9 m, longer than
-delta_c) and their masks bleed along the wall to 1.3-2.0 m: on office-s (build seed 2, pass
-2) two doors facing each other across the 2.1 m corridor, each a sliver of the pair's
-length, were joined into one door in the corridor's middle (the pass's object F1 0.952;
-their joint box 2.25 x 1.97 m, the four doors' footprints 0.17-0.63 m across). On an
-Environment-A-size floor (seed 9955, pass 1) two 1.2 x 0.6 m tables standing side by side,
-one 0.8 m further along, were joined into one (joint box 1.52 x 2.33 m); the ends of tables
-joined there were 0.85-0.98 m across, the tables' width with the mask's bleed. Not the
-widest footprints: a tenth of that floor's table footprints reached 1.3-1.6 m across, and
-against them the side-by-side tables were still joined. Nor the gap between the two (what
-hides a table's middle is a chair): ends of 1.6 m tables lay 0.65-0.88 m apart.
+Tables 0.6 m wide seen whole only end-on are narrower than delta_c even with the mask's
+bleed: on a 36 x 28 m office (seed 7305, pass 2) the longest whole view of a table was
+0.66 m while four of its six table footprints reached 1.2-1.9 m, so tables were not big, and
+the two ends of a 1.2 m table flanked by chairs (0.7 and 0.3 m of it, 0.16 m apart) stayed
+two tables in passes 2 and 3. Footprints longer than delta_c plus the margin do not tell
+such tables from chairs: after three passes over six 36 x 28 m offices 0-8 of 12-14 chair
+footprints were, their masks bled over the chair beside. How long most footprints are
+does: the median chair footprint was 0.73-0.96 m there, the median table's 1.21-1.46 m. So
+a category is big, too, when a whole view is no more than the margin short of delta_c and at
+least half its footprints (``MOST_SHARE``) are longer than delta_c plus twice the margin
+(1.1 m: a chair with its neighbour's bleed stays below it).
 """
 
 from __future__ import annotations
@@ -85,6 +83,10 @@ FOOTPRINT_RANK = 3  # [count] the fewest footprints that set a big category's si
 # [-] share of a category's footprints longer than delta_c plus the margin that makes it big
 # where no whole view was (a table seen whole only across its width)
 BIG_SHARE = 1.0 / 3.0
+# [-] share of a category's footprints longer than delta_c plus twice the margin that makes it
+# big where its whole views fall short of delta_c by up to the margin (tables 0.6 m wide, seen
+# whole only end-on)
+MOST_SHARE = 0.5
 # [-] quantile of the shorter sides of a big category's whole footprints (those no part) that
 # two parts joined must stay within across: masks bleed, and a tenth of the table footprints
 # on an Environment-A-size floor were 1.3-1.6 m across (tables 0.6-0.8 m wide)
@@ -97,7 +99,9 @@ def reference_lengths(nodes: Iterable[Node], longest_whole: dict[str, float],
     whole view, and for a big category at least the length that ``FOOTPRINT_SHARE`` of its
     nodes' footprints reach (the ``FOOTPRINT_RANK``-th longest at least). Big (a table, not
     a chair): a whole view longer than ``delta(category)`` plus ``margin``, or one longer
-    than delta_c and ``BIG_SHARE`` of its nodes' footprints longer than delta_c plus ``margin``.
+    than delta_c and ``BIG_SHARE`` of its nodes' footprints longer than delta_c plus ``margin``,
+    or one longer than delta_c minus ``margin`` and ``MOST_SHARE`` of the footprints longer
+    than delta_c plus twice ``margin``.
     Categories with no whole view have none."""
     lengths: dict[str, list[float]] = {}
     for v in nodes:
@@ -109,7 +113,10 @@ def reference_lengths(nodes: Iterable[Node], longest_whole: dict[str, float],
         reached = footprint_length(sides)
         small = delta(category) + margin
         long_share = float(np.mean(np.asarray(sides) > small)) if sides else 0.0
-        if reached is not None and (whole > small or (whole > delta(category) and long_share >= BIG_SHARE)):
+        most_long = float(np.mean(np.asarray(sides) > small + margin)) if sides else 0.0
+        big = whole > small or (whole > delta(category) and long_share >= BIG_SHARE) \
+            or (whole > delta(category) - margin and most_long >= MOST_SHARE)
+        if reached is not None and big:
             out[category] = max(whole, reached)
     return out
 
