@@ -115,5 +115,20 @@ def test_no_instance_image_at_all_is_an_error_once_the_frame_timeout_passed():
     camera.image(2.0)
     assert camera.robot.frame() is None
     camera.clock = 4.5
-    with pytest.raises(MissionFailed, match="no instance image on /bomc_sim/instances for the image at 2.00 s"):
+    with pytest.raises(MissionFailed, match=r"no instance image on /bomc_sim/instances for the image at 2\.00 s "
+                                            r"\(none has come whole\)"):
+        camera.robot.frame()
+
+
+def test_the_error_says_what_did_come():
+    """A topic far behind the camera's, or an image whose info alone came: the one who reads
+    the error sees which."""
+    camera = Camera()
+    camera.truth(1.5)
+    camera.clock = 2.0
+    camera.image(2.0)
+    camera.callbacks[info_topic(TOPIC)](String(data=json.dumps({"stamp": 2.0, "categories": {}, "unoccluded": {}})))
+    assert camera.robot.frame() is None
+    camera.clock = 4.5
+    with pytest.raises(MissionFailed, match=r"at 2\.00 s \(the newest whole one is of 1\.50 s; its info came\)"):
         camera.robot.frame()

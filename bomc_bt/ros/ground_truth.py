@@ -102,6 +102,16 @@ class GroundTruthChannel:
             newer = [entry for k, entry in self._entries.items() if k > key]
         return self._entry(stamp) is None and any("image" in e and "info" in e for e in newer)
 
+    def missing(self, stamp: float) -> str:
+        """Why the mission stops for the ground truth of ``stamp``: what did come, for the
+        one who reads the error (a topic never connected, or one far behind the camera's)."""
+        with self._lock:
+            entry = self._entries.get(round(stamp, 6), {})
+            whole = [k for k, e in self._entries.items() if "image" in e and "info" in e]
+        newest = f"the newest whole one is of {max(whole):.2f} s" if whole else "none has come whole"
+        parts = "; its info came" if "info" in entry else ("; its image came" if "image" in entry else "")
+        return f"no instance image on {self.topic} for the image at {stamp:.2f} s ({newest}{parts})"
+
     def attach(self, frame: RGBDFrame) -> SimFrame:
         """``frame`` with its ground truth (once :meth:`ready` says it is here)."""
         entry = self._entry(frame.stamp)

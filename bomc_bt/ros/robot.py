@@ -296,9 +296,7 @@ class RosRobot:
             if waited > p.frame_timeout:
                 self._pending = None
                 if truth_missing:
-                    raise MissionFailed(
-                        f"no instance image on {p.instances_topic} for the image at {pending['stamp']:.2f} s"
-                    )
+                    raise MissionFailed(self.ground_truth.missing(pending["stamp"]))
                 missing = f"{p.map_frame} <- {p.base_frame}" if T_map_base is None else f"{p.base_frame} <- {camera}"
                 raise MissionFailed(
                     f"no tf {missing} at the image stamp {pending['stamp']:.2f} s within "
