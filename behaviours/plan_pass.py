@@ -21,7 +21,14 @@ from bomc_bt.graph import PRESENT
 from bomc_bt.monitor_pass import extend_pass, open_pass
 from bomc_bt.monitoring import GAPS, REFRESH
 from bomc_bt.planner import DrivenLengths, GridPlanner
-from bomc_bt.refresh import RefreshParams, object_boxes_by_id, refresh_viewpoints, sighting_looks, stale_nodes
+from bomc_bt.refresh import (
+    RefreshParams,
+    displaced_nodes,
+    object_boxes_by_id,
+    refresh_viewpoints,
+    sighting_looks,
+    stale_nodes,
+)
 from bomc_bt.site import write_json
 from bomc_bt.traversal import TraversalPlan, load_trajectory, plan_traversal, snap_to_free
 from bomc_bt.tree.leaf import Leaf
@@ -189,6 +196,12 @@ class PlanRefreshStops(PlanPhase):
         waiting = {n.id for n, _ in second_looks}
         unresolved = [n for n in ctx.graph.unresolved(ctx.session) if n.id not in waiting] \
             if self.params.unresolved else []
+        if self.params.unresolved:  # and those that may have moved to a node this pass added
+            events = ctx.perception.events if ctx.perception is not None else []
+            added_at = {e.node_id: e.stamp for e in reversed(events) if e.kind == "added"}
+            taken = waiting | {n.id for n in unresolved}
+            unresolved += [n for n in displaced_nodes(ctx.graph.nodes.values(), added_at, ctx.session,
+                                                      ctx.graph.params.relocation_radius) if n.id not in taken]
         sighted = sighting_looks(ctx.graph.unconfirmed_sightings()) if self.params.unconfirmed else []
         looks = second_looks + [(n, None) for n in unresolved] + [(s, None) for s in sighted]
         grid = ctx.robot.live_map()

@@ -12,7 +12,14 @@ from bomc_bt.graph import Node
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import GAPS, PENDING, REFRESH, VISITED, TraversalState
 from bomc_bt.planner import GridPlanner, PlannerParams
-from bomc_bt.refresh import RefreshParams, object_boxes, refresh_viewpoints, second_look_places, stale_nodes
+from bomc_bt.refresh import (
+    RefreshParams,
+    displaced_nodes,
+    object_boxes,
+    refresh_viewpoints,
+    second_look_places,
+    stale_nodes,
+)
 from bomc_bt.traversal import TraversalPlan
 
 NOW = 1000.0
@@ -268,3 +275,30 @@ def test_an_empty_gap_phase_does_not_count_the_refresh_stops_after_it():
     shuffled.restore({**state.to_json(), "phases": {REFRESH: 2, GAPS: 2}})
     for s in (state, resumed, shuffled):
         assert (s.summary()["gap_viewpoints"], s.summary()["refresh_stops"]) == (0, 2)
+
+
+def _bin(i: int, x: float, first_session: int, last_seen: float | None, category: str = "trash bin") -> Node:
+    n = Node(i, category, np.array([x, 0.0, 0.3]), 0.9, first_session, 2)
+    n.last_seen = last_seen
+    return n
+
+
+def test_a_node_last_seen_before_one_of_its_kind_was_added_near_it_may_have_moved_there():
+    """36 x 28 m office, seed 7421, pass 10: a bin moved 1.1 m during the pass after the robot
+    had seen it (node 54, last seen at 198 s); the robot came by its new place at 983 s and
+    added it (node 81). Nothing looked at the old place again: the pass reported an addition,
+    and the removal a pass late, where the bin had moved."""
+    old, new = _bin(54, 0.0, 1, 198.0), _bin(81, 1.06, 2, 1150.0)
+    assert [n.id for n in displaced_nodes([old, new], {81: 983.0}, 2, 5.0)] == [54]
+
+
+def test_no_look_for_a_node_seen_after_the_addition_or_of_another_kind_or_far_or_new():
+    seen_since = [_bin(1, 0.0, 1, 990.0), _bin(2, 1.0, 2, 995.0)]  # both seen at once since: two bins
+    chair = [_bin(1, 0.0, 1, 198.0, "chair"), _bin(2, 1.0, 2, 995.0)]
+    far = [_bin(1, 0.0, 1, 198.0), _bin(2, 5.5, 2, 995.0)]
+    both_new = [_bin(1, 0.0, 2, 198.0), _bin(2, 1.0, 2, 995.0)]  # pass 1 of its place: nothing to move
+    for nodes in (seen_since, chair, far, both_new):
+        assert displaced_nodes(nodes, {2: 983.0}, 2, 5.0) == []
+    gone = [_bin(1, 0.0, 1, 198.0), _bin(2, 1.0, 2, 995.0)]
+    gone[0].state = "removed"
+    assert displaced_nodes(gone, {2: 983.0}, 2, 5.0) == []

@@ -198,6 +198,32 @@ def test_plan_refresh_stops_look_at_a_node_the_pass_left_unresolved_past_no_othe
     assert abs(math.atan2(5.0 - 7.0, 1.0 - 2.5) - stop.yaw) < math.radians(25.0)
 
 
+def test_plan_refresh_stops_look_at_a_node_that_may_have_moved_to_one_the_pass_added(ctx, robot):
+    """36 x 28 m office, seed 7421, pass 10: a bin moved 1.1 m during the pass after the robot
+    had seen it; seen at its new place later on, it was added, and nothing looked at its old
+    node again (an addition reported, the removal a pass late). The leaf plans a stop facing
+    the old node; with ``unresolved: false`` it plans none."""
+    for unresolved, stops in ((True, 1), (False, 0)):
+        state = start_pass(ctx, (2.5, 7.0), (6.0, 5.0))
+        for _ in range(2):
+            state.mark(state.next(), VISITED)
+        old = Node(0, "trash bin", np.array([1.0, 5.0, 0.3]), 0.9, 1, 2)
+        ctx.session, ctx.graph = 2, ObjectGraph(AssociationParams(mode="robust", confirm_detections=1), [old])
+        old.last_seen = ctx.now()  # matched in this pass, then the bin was carried off
+        robot.advance(30.0)
+        added = ctx.graph.add(Observation("trash bin", np.array([2.06, 5.0, 0.3]), 0.9), 2, ctx.now())
+        ctx.graph.add_observations(ctx.graph.nodes[added.node_id], 5)  # confirmed: no doubt of its own
+        ctx.perception = SimpleNamespace(events=[added])
+        robot.advance(10.0)
+        params = RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=(), unresolved=unresolved)
+        leaf = PlanRefreshStops("Refresh", params, ctx)
+        assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == stops
+        if stops:
+            assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 left unresolved"
+            stop = state.waypoint(len(state.states) - 1)
+            assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
+
+
 def test_plan_refresh_stops_look_again_where_the_pass_caught_an_object_in_one_frame_only(ctx, robot):
     """A trash bin the camera caught in one frame while the robot turned was never confirmed
     (a new object needs two frames) and no node stands there. The leaf plans a stop where the
