@@ -198,6 +198,16 @@ def test_plan_refresh_stops_look_at_a_node_the_pass_left_unresolved_past_no_othe
     assert abs(math.atan2(5.0 - 7.0, 1.0 - 2.5) - stop.yaw) < math.radians(25.0)
 
 
+def _refresh_faces_the_bin(ctx, state: TraversalState, params: RefreshParams, stops: int, message: str) -> None:
+    """Plan Refresh Stops plans ``stops`` (0 or 1) stops; one faces the bin at (1, 5) and says ``message``."""
+    leaf = PlanRefreshStops("Refresh", params, ctx)
+    assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == stops
+    if stops:
+        assert leaf.feedback_message == message
+        stop = state.waypoint(len(state.states) - 1)
+        assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
+
+
 def test_plan_refresh_stops_look_at_a_node_that_may_have_moved_to_one_the_pass_added(ctx, robot):
     """36 x 28 m office, seed 7421, pass 10: a bin moved 1.1 m during the pass after the robot
     had seen it; seen at its new place later on, it was added, and nothing looked at its old
@@ -216,12 +226,7 @@ def test_plan_refresh_stops_look_at_a_node_that_may_have_moved_to_one_the_pass_a
         ctx.perception = SimpleNamespace(events=[added])
         robot.advance(10.0)
         params = RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=(), unresolved=unresolved)
-        leaf = PlanRefreshStops("Refresh", params, ctx)
-        assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == stops
-        if stops:
-            assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 left unresolved"
-            stop = state.waypoint(len(state.states) - 1)
-            assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
+        _refresh_faces_the_bin(ctx, state, params, stops, "1 refresh stops for 0 stale nodes and 1 left unresolved")
 
 
 def test_plan_refresh_stops_look_again_where_the_pass_caught_an_object_in_one_frame_only(ctx, robot):
@@ -238,12 +243,8 @@ def test_plan_refresh_stops_look_again_where_the_pass_caught_an_object_in_one_fr
         robot.advance(30.0)
         ctx.graph.associate([], [], 2, ctx.now())  # its ttl ran out unconfirmed
         params = RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=(), unconfirmed=unconfirmed)
-        leaf = PlanRefreshStops("Refresh", params, ctx)
-        assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == stops
-        if stops:
-            assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 unconfirmed sightings"
-            stop = state.waypoint(len(state.states) - 1)
-            assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
+        message = "1 refresh stops for 0 stale nodes and 1 unconfirmed sightings"
+        _refresh_faces_the_bin(ctx, state, params, stops, message)
 
 
 def test_plan_refresh_stops_look_again_at_an_object_the_pass_added_on_its_two_confirming_frames_only(ctx, robot):
