@@ -373,7 +373,8 @@ seen before it is written. With a store, every frame
                 self.looked_since.append(near.tolist())
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
         expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates
-        weights = miss_weights(frame, expected, self.params, detections) if self.occlusion_check else None
+        weights = (miss_weights(frame, expected, self.params, detections, observations,
+                                self.graph.params.relabel_radius) if self.occlusion_check else None)
         events = self.graph.associate(observations, [n.id for n in expected], self.session, frame.stamp,
                                       in_view=[n.id for n in candidates], miss_weights=weights,
                                       place=frame.T_map_base[:2, 3])

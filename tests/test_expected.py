@@ -12,8 +12,9 @@ from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.perception.expected import edge_on, expected_nodes, miss_weights
+from bomc_bt.perception.expected import edge_on, expected_nodes, miss_weights, place_taken
 from bomc_bt.perception.frames import Detection
+from bomc_bt.perception.projection import detections_to_observations
 from bomc_bt.sim.camera import CameraParams, SimCamera
 from bomc_bt.world import WorldObject
 
@@ -150,3 +151,75 @@ def test_a_node_whose_place_lies_just_behind_a_walls_face_is_hidden_not_missed()
     assert expected_nodes(frame, [behind, on_face], params) == [behind, on_face]  # within visible()'s 0.3 m
     weights = miss_weights(frame, [behind, on_face], params)
     assert weights[0] == 0.0 and weights[1] > 0.5
+
+
+def category_detection(frame, category: str) -> Detection:
+    """Every pixel of the frame's objects of ``category``, as a perfect segmenter returns them."""
+    ids = [i for i, c in frame.instance_categories.items() if c == category]
+    mask = np.isin(frame.instances, ids)
+    rows, cols = np.nonzero(mask)
+    return Detection(category, (float(cols.min()), float(rows.min()), float(cols.max()), float(rows.max())), 0.9,
+                     mask)
+
+
+def test_a_chair_whose_place_a_plant_took_is_missed_and_the_plant_gets_its_own_node():
+    """Seed 7503, pass 4 (36 x 28 m office): a chair moved away before the pass, a plant put
+    where it stood during it. The plant filled the chair's place, so the chair's misses
+    weighed nothing, and the plant's sightings, on the chair's node, were taken for the
+    chair under another name (confusions.py): the chair stayed on the map, the plant never
+    came on. A place where an object of another kind is seen standing is no longer held."""
+    camera = Pose2D(-3.0, -1.5, 0.0)  # 2.1 m from the place: a miss weighs fully
+    plant = WorldObject("p", "potted plant", (-0.95, -1.45, 0.45), (0.4, 0.4, 0.9), yaw=0.0)
+    params = ProjectionParams()
+    frame = render([plant], camera)
+    seen = [category_detection(frame, "potted plant")]
+    observations = detections_to_observations(frame, seen, params)
+    assert [o.category for o in observations] == ["potted plant"]
+    node = Node(0, "chair", np.array([-0.9, -1.5, 0.5]), 0.9, 1, 1, observations=20,
+                footprint=np.array([-1.15, -1.75, -0.65, -1.25]))
+    assert expected_nodes(frame, [node], params) == [node]
+    assert miss_weights(frame, [node], params, seen) == [0.0]  # held, as before
+    assert miss_weights(frame, [node], params, seen, observations, 0.3) == [1.0]
+    # A television above a cabinet's place stands on it, not in it: the cabinet stays held.
+    cabinet = Node(1, "cabinet", np.array([-0.9, -1.5, -0.2]), 0.9, 1, 1)
+    assert place_taken([cabinet], observations, 0.3).tolist() == [False]
+
+    graph = ObjectGraph(AssociationParams(), [node])
+    events = []
+    for k in range(20):  # 10 s of frames at 2 Hz
+        expected = expected_nodes(frame, list(graph.nodes.values()), params)
+        weights = miss_weights(frame, expected, params, seen, observations, graph.params.relabel_radius)
+        events += graph.associate(observations, [n.id for n in expected], 4, 100.0 + 0.5 * k, miss_weights=weights)
+    kinds = [(e.kind, e.category) for e in events if e.kind != "updated"]
+    assert kinds == [("removed", "chair"), ("added", "potted plant")]
+
+
+def test_a_chair_named_plant_keeps_its_node():
+    """The other side: a chair that stands there. Named "potted plant" in one frame before
+    the pass saw it as a chair, that frame counts one miss, which the next sighting ends.
+    Once the pass has seen it as a chair, another name at its place, frame after frame (a
+    detector's confusion from one viewpoint), is no evidence: the place stays held. Neither
+    way is a plant node made (one object, one label)."""
+    camera = Pose2D(-3.0, -1.5, 0.0)
+    params = ProjectionParams()
+    frame = render([chair("c", -0.9)], camera)
+    as_chair = [category_detection(frame, "chair")]
+    as_plant = [Detection("potted plant", as_chair[0].box, 0.9, as_chair[0].mask)]
+
+    def events_over(names: str) -> list[tuple[str, str]]:
+        node = Node(0, "chair", np.array([-0.9, -1.5, 0.5]), 0.9, 1, 1, observations=20,
+                    footprint=np.array([-1.15, -1.75, -0.65, -1.25]))  # from the store: not seen yet
+        graph = ObjectGraph(AssociationParams(), [node])
+        events = []
+        for k, name in enumerate(names):
+            found = as_plant if name == "p" else as_chair
+            observations = detections_to_observations(frame, found, params)
+            expected = expected_nodes(frame, list(graph.nodes.values()), params)
+            weights = miss_weights(frame, expected, params, found, observations, graph.params.relabel_radius)
+            events += graph.associate(observations, [n.id for n in expected], 2, 100.0 + 0.5 * k,
+                                      miss_weights=weights)
+        return [(e.kind, e.category) for e in events if e.kind not in ("updated", "moved")]
+
+    assert events_over("pccccpcccc") == []
+    assert events_over("c" + "p" * 20) == []
+    assert events_over("p" * 20) == [("removed", "chair"), ("added", "potted plant")]  # never seen as a chair
