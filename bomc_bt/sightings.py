@@ -3,11 +3,11 @@
 A node the map adds in pass N is a change only if the object was not there at pass N-1.
 Where pass N-1 looked and saw nothing, it was not (:mod:`bomc_bt.first_seen`). But pass
 N-1 may also have *detected* the object and still left no node for it: it folded the views
-into a neighbouring chair 0.8 m away, dropped a first sighting that was not confirmed in
-time, or removed the node after a run of missed detections. On an Environment-A-size
-floor most of session 2's phantom additions were such objects (issue 17): the chairs pass
-1 had merged or wrongly removed, found again. An operator told "a chair was added here"
-goes to look at a chair that stood there all along.
+into a neighbouring chair 0.8 m away, or dropped a first sighting that was not confirmed in
+time. On an Environment-A-size floor most of session 2's phantom additions were such
+objects (issue 17): the chairs pass 1 had merged or wrongly removed, found again (a node
+removed on its misses is now a reported removal, and its place no sighting's: below). An
+operator told "a chair was added here" goes to look at a chair that stood there all along.
 
 So every pass records where its detections put objects, per category: the map cell of
 each observation's centre (``Perception.sightings``), saved per session in the store's
@@ -19,9 +19,14 @@ next pass's :class:`~bomc_bt.first_seen.SeenBefore` calls a new node that stands
 (``{"first_seen": true, "sighted_in": N-1}``).
 
 Only the previous recorded pass counts: a chair seen in pass 1, taken away before pass 2
-(which saw the place empty) and brought back before pass 3 *was* added for pass 3. A true
-addition that lands where the previous pass saw another object of its category (within
-the radius, less than an object's size) is the price: it is not reported.
+(which saw the place empty) and brought back before pass 3 *was* added for pass 3. So
+does a node the previous pass removed on evidence of absence (missed frames, not a merge,
+and not brought back in that pass): its sightings there were of an object it then saw
+gone, and that pass reported the removal, so the object back there is an addition
+(:meth:`~bomc_bt.first_seen.SeenBefore.mark`; a bin taken away during a pass after the
+robot saw it and brought back before the next was first seen, and the map's story stayed
+"removed"). A true addition that lands where the previous pass saw another object of its
+category (within the radius, less than an object's size) is the price: it is not reported.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Sightings (issue 17): a node new in pass N where pass N-1 had detected an object of its
 category is new to the map, not an addition: the object stood there, pass N-1 folded it
-into a neighbour or removed it."""
+into a neighbour or never confirmed it. Where pass N-1 removed a node on its misses, an
+object back there is an addition."""
 
 from __future__ import annotations
 
@@ -99,6 +100,39 @@ def test_only_the_previous_pass_counts_and_a_place_it_saw_empty_is_an_addition(t
         assert load_seen_before(store, 3, grid, 0.3, 0.0).sighted == {}  # radius 0: off
         seen_2 = load_seen_before(store, 2, grid, 0.3, 0.35)
         assert seen_2.sighted_in == 1 and seen_2.saw(np.array([2.3, 5.0]), seen_2.sighted["chair"])[0]
+
+
+def test_an_object_back_where_the_previous_pass_saw_it_and_then_saw_it_gone_is_added(tmp_path):
+    """Seed 7503 (36 x 28 m office), passes 2-3: a bin the robot saw at 54 s of pass 2 was
+    taken away during the pass; its node's misses removed it ("removed" reported). Brought
+    back to its place before pass 3, it was first seen (pass 2 had detected a bin there),
+    so the map's story stayed "removed". A removal on evidence of absence takes its place out
+    of the previous pass's sightings; a merge does not (the object stood there, folded into
+    a neighbour), nor does a node the pass removed and then brought back itself."""
+    grid = grid_10m()
+    one, two = Sightings(grid), Sightings(grid)
+    one.add([obs(2.0), obs(6.0), obs(8.0)])
+    two.add([obs(2.0), obs(6.0), obs(8.0)])
+    gone = Event("removed", 5, "chair", np.array([2.05, 5.0, 0.4]), 2, 80.0,
+                 detail={"misses": 4, "merged": False, "seen": 54.0})
+    folded = Event("removed", 6, "chair", np.array([6.0, 5.0, 0.4]), 2, 81.0,
+                   detail={"misses": 0, "merged": True, "merged_into": 7})
+    back = [Event("removed", 8, "chair", np.array([8.0, 5.0, 0.4]), 2, 82.0, detail={"misses": 3, "merged": False}),
+            Event("moved", 8, "chair", np.array([8.0, 5.0, 0.4]), 2, 90.0)]
+    store = SiteStore(tmp_path / "site.db")
+    everything = pack_mask(np.ones(grid.data.shape, dtype=np.uint8))
+    for n, s, events in ((1, one, []), (2, two, [gone, folded, *back])):
+        store.begin_session(n, {"stamp": 0.0})
+        store.record(events, [])
+        saved = {coverage_key(n): everything, sightings_key(n): s.packed()}
+        store.end_session(n, "succeeded", {"stamp": 1.0}, (), saved)
+    with store:
+        seen = load_seen_before(store, 3, grid, 0.3, 0.35)
+        events = [added(1, 2.0, session=3), added(2, 6.0, session=3), added(3, 8.0, session=3)]
+        assert seen.mark(events) == 2
+        assert events[0].detail is None  # back where pass 2 saw it gone: added
+        assert events[1].detail == {FIRST_SEEN: True, SIGHTED_IN: 2}  # merged: it stood there all along
+        assert events[2].detail == {FIRST_SEEN: True, SIGHTED_IN: 2}  # removed and brought back in pass 2
 
 
 def test_a_pass_that_saved_no_sightings_marks_nothing_by_them(tmp_path):
