@@ -23,6 +23,7 @@ from bomc_bt.monitoring import GAPS, REFRESH
 from bomc_bt.planner import DrivenLengths, GridPlanner
 from bomc_bt.refresh import (
     RefreshParams,
+    added_times,
     displaced_nodes,
     object_boxes_by_id,
     refresh_viewpoints,
@@ -198,7 +199,7 @@ class PlanRefreshStops(PlanPhase):
             if self.params.unresolved else []
         if self.params.unresolved:  # and those that may have moved to a node this pass added
             events = ctx.perception.events if ctx.perception is not None else []
-            added_at = {e.node_id: e.stamp for e in reversed(events) if e.kind == "added"}
+            added_at = added_times(events)
             taken = waiting | {n.id for n in unresolved}
             unresolved += [n for n in displaced_nodes(ctx.graph.nodes.values(), added_at, ctx.session,
                                                       ctx.graph.params.relocation_radius) if n.id not in taken]

@@ -63,7 +63,7 @@ import cv2
 import numpy as np
 
 from bomc_bt.geometry import Pose2D
-from bomc_bt.graph import PRESENT, Node, ObjectGraph
+from bomc_bt.graph import PRESENT, Event, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import camera_clear, sees_node
 from bomc_bt.viewpoints import best_heading
@@ -137,6 +137,15 @@ class RefreshParams:
 def stale_nodes(nodes: Iterable[Node], now: float, stale_after: float) -> list[Node]:
     """Nodes this pass confirmed, but more than ``stale_after`` seconds before ``now``."""
     return [n for n in nodes if n.last_seen is not None and now - n.last_seen > stale_after]
+
+
+def added_times(events: Iterable[Event]) -> dict[int, float]:
+    """Node id -> robot time of its first "added" event among ``events`` (a pass's, in order)."""
+    out: dict[int, float] = {}
+    for e in events:
+        if e.kind == "added":
+            out.setdefault(e.node_id, e.stamp)
+    return out
 
 
 def displaced_nodes(nodes: Iterable[Node], added_at: dict[int, float], session: int,

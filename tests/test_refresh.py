@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 
 from bomc_bt.geometry import Pose2D, wrap_angle
-from bomc_bt.graph import Node
+from bomc_bt.graph import Event, Node
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import GAPS, PENDING, REFRESH, VISITED, TraversalState
 from bomc_bt.planner import GridPlanner, PlannerParams
 from bomc_bt.refresh import (
     RefreshParams,
+    added_times,
     displaced_nodes,
     object_boxes,
     refresh_viewpoints,
@@ -302,3 +303,12 @@ def test_no_look_for_a_node_seen_after_the_addition_or_of_another_kind_or_far_or
     gone = [_bin(1, 0.0, 1, 198.0), _bin(2, 1.0, 2, 995.0)]
     gone[0].state = "removed"
     assert displaced_nodes(gone, {2: 983.0}, 2, 5.0) == []
+
+
+def test_added_times_are_each_node_s_first_addition_in_the_pass():
+    def ev(kind: str, node: int, stamp: float) -> Event:
+        return Event(kind, node, "chair", np.zeros(3), 2, stamp)
+
+    events = [ev("added", 4, 10.0), ev("updated", 4, 11.0), ev("removed", 4, 20.0), ev("added", 4, 30.0),
+              ev("added", 7, 15.0), ev("moved", 8, 16.0)]
+    assert added_times(events) == {4: 10.0, 7: 15.0}

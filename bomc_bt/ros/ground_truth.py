@@ -37,7 +37,7 @@ def instance_messages(frame: SimFrame, image: Callable[[str, bytes, int], Any]) 
     from std_msgs.msg import String
 
     h, w = frame.shape
-    info_stamp = round(frame.stamp, 6)  # the executive keys instance data by this
+    info_stamp = _key(frame.stamp)  # the executive keys instance data by this
     data = {
         "stamp": info_stamp,
         "categories": {str(k): v for k, v in frame.instance_categories.items()},
@@ -65,13 +65,13 @@ class GroundTruthChannel:
 
     def _on_image(self, msg: Any) -> None:
         with self._lock:
-            self._entries.setdefault(round(msg.header.stamp.to_sec(), 6), {})["image"] = msg
+            self._entries.setdefault(_key(msg.header.stamp.to_sec()), {})["image"] = msg
             self._trim()
 
     def _on_info(self, msg: Any) -> None:
         data = json.loads(msg.data)
         with self._lock:
-            self._entries.setdefault(round(float(data["stamp"]), 6), {})["info"] = data
+            self._entries.setdefault(_key(float(data["stamp"])), {})["info"] = data
             self._trim()
 
     def _info_stamp_ns(self, msg: Any) -> int:
@@ -83,8 +83,8 @@ class GroundTruthChannel:
 
     def _entry(self, stamp: float) -> dict[str, Any] | None:
         with self._lock:
-            entry = self._entries.get(round(stamp, 6))
-        return entry if entry is not None and "image" in entry and "info" in entry else None
+            entry = self._entries.get(_key(stamp))
+        return entry if entry is not None and _whole(entry) else None
 
     def ready(self, stamp: float) -> bool:
         """Both the instance image and its info of the camera image at ``stamp`` are here."""
@@ -97,17 +97,17 @@ class GroundTruthChannel:
         or subscriber queue overran on a loaded machine. Its camera frame is skipped rather
         than waited for (``ros.frame_timeout``) and the mission failed for one lost message.
         """
-        key = round(stamp, 6)
+        key = _key(stamp)
         with self._lock:
             newer = [entry for k, entry in self._entries.items() if k > key]
-        return self._entry(stamp) is None and any("image" in e and "info" in e for e in newer)
+        return self._entry(stamp) is None and any(_whole(e) for e in newer)
 
     def missing(self, stamp: float) -> str:
         """Why the mission stops for the ground truth of ``stamp``: what did come, for the
         one who reads the error (a topic never connected, or one far behind the camera's)."""
         with self._lock:
-            entry = self._entries.get(round(stamp, 6), {})
-            whole = [k for k, e in self._entries.items() if "image" in e and "info" in e]
+            entry = self._entries.get(_key(stamp), {})
+            whole = [k for k, e in self._entries.items() if _whole(e)]
         newest = f"the newest whole one is of {max(whole):.2f} s" if whole else "none has come whole"
         parts = "; its info came" if "info" in entry else ("; its image came" if "image" in entry else "")
         return f"no instance image on {self.topic} for the image at {stamp:.2f} s ({newest}{parts})"
@@ -118,6 +118,16 @@ class GroundTruthChannel:
         if entry is None:
             raise KeyError(f"no ground truth for the frame at {frame.stamp:.2f} s")
         return with_ground_truth(frame, entry["image"], entry["info"])
+
+
+def _key(stamp: float) -> float:
+    """The entry key of a stamp (s): both topics' stamps, rounded alike."""
+    return round(stamp, 6)
+
+
+def _whole(entry: dict[str, Any]) -> bool:
+    """Both the instance image and its info record have come."""
+    return "image" in entry and "info" in entry
 
 
 def with_ground_truth(frame: RGBDFrame, image: Any, info: dict[str, Any]) -> SimFrame:
