@@ -37,6 +37,7 @@ from bomc_bt.errors import BomcError
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid, load_map
 from bomc_bt.world import FORMAT_VERSION, World, load_world
+from bomc_bt.world.looks import model_colour
 from bomc_bt.worldgen_placer import PlacementRules, Placer, clearance_map, reachable_free
 
 # Typical box (x, y, z extents, m) per category; the centre stands at half the height
@@ -104,6 +105,7 @@ class _Builder:
     removed: dict[str, dict[str, Any]] = field(default_factory=dict)  # taken away (churn recipe)
     counters: dict[str, int] = field(default_factory=dict)
     made: int = 0
+    seed: int = 0  # the world's seed: with an object's name, its model's colour (bomc_bt.world.looks)
 
     def new_object(self) -> dict[str, Any]:
         category = self.categories[self.made % len(self.categories)]
@@ -119,6 +121,9 @@ class _Builder:
         obj = {"name": f"{slug}-{self.counters[slug]}", "category": category,
                "position": [xy[0], xy[1], round(z, 3)], "size": list(size),
                "yaw": round(float(self.rng.uniform(-math.pi, math.pi)), 3)}
+        colour = model_colour(self.seed, obj["name"], category)
+        if colour is not None:
+            obj["colour"] = list(colour)
         self.present[obj["name"]] = copy.deepcopy(obj)
         return obj
 
@@ -216,7 +221,7 @@ def generate_world(grid_yaml_path: str | Path, seed: int, n_objects: int,
     rng = np.random.default_rng(seed)
     start = largest_clearance_pose(grid)
     placer = Placer(grid, rng, params.placement, (start.x, start.y), params.start_keepout)
-    b = _Builder(placer, params, rng, list(categories), grid_file)
+    b = _Builder(placer, params, rng, list(categories), grid_file, seed=seed)
 
     objects = [b.new_object() for _ in range(n_objects)]
     timeline = _fixed_recipe(b, n_objects, sessions) if churn is None else _churn_recipe(b, sessions, churn)

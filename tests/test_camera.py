@@ -9,7 +9,7 @@ import pytest
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.sim.camera import CameraParams, SimCamera
+from bomc_bt.sim.camera import CameraParams, SimCamera, category_colour
 from bomc_bt.world import Obstacle, WorldObject
 
 RES = 0.05
@@ -213,3 +213,18 @@ def test_culling_boxes_out_of_view_changes_no_pixel(monkeypatch):
         assert np.array_equal(a.instances, b.instances)
         assert np.array_equal(a.rgb, b.rgb)
         assert a.instance_unoccluded == b.instance_unoccluded
+
+
+def test_an_object_is_drawn_in_its_own_colour_and_without_one_in_its_categorys():
+    cam = camera(tilt_deg=0.0, scale=0.5)
+    walls, grid = empty_world()
+    red = WorldObject("r", "chair", (3.0, 0.6, 1.1), (0.4, 0.4, 0.4), colour=(160, 45, 40))
+    plain = WorldObject("p", "chair", (3.0, -0.6, 1.1), (0.4, 0.4, 0.4))
+    f = render(cam, walls, grid, [red, plain])
+    rgb = f.rgb.reshape(-1, 3).astype(float)
+    ids = f.instances.ravel()
+    chroma = rgb[ids == 1] / rgb[ids == 1].sum(axis=1, keepdims=True)
+    assert np.allclose(chroma[:, :2], [160 / 245, 45 / 245], atol=0.01)  # darkened with distance, same hue
+    other = rgb[ids == 2] / rgb[ids == 2].sum(axis=1, keepdims=True)
+    r, g, b = category_colour("chair")
+    assert np.allclose(other, np.array([r, g, b]) / (r + g + b), atol=0.01)

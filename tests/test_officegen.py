@@ -19,6 +19,7 @@ from bomc_bt.officegen import OfficeParams, draft_office, generate_office
 from bomc_bt.officegen.connectivity import rasterise
 from bomc_bt.sim.scene import Scene
 from bomc_bt.world import load_world
+from bomc_bt.world.looks import MODELS
 
 RADIUS = 0.3  # the planner's robot radius: closer than this to anything solid is lethal
 
@@ -292,3 +293,15 @@ def test_a_chair_left_in_a_corridor_stands_in_the_middle_with_a_way_past_on_both
         assert all(_at(world.grid, reach, px, py) for px, py in sides), f"session {k}: no way past {name}"
     plain = OfficeParams(width=30, height=20, seed=7, sessions=4, churn=0.15)
     assert not draft_office(plain).timeline.corridor_chairs
+
+
+def test_objects_come_in_their_kinds_few_models_and_keep_their_look_when_moved_or_brought_back(small):
+    world, _ = small
+    looks: dict[str, tuple] = {}
+    for k in range(1, world.last_session + 1):
+        for state in (world.objects_in_session(k), world.ground_truth(k)):
+            for name, o in state.items():
+                assert o.colour in MODELS[o.category], f"{name}: {o.colour}"
+                assert looks.setdefault(name, o.colour) == o.colour, f"{name} changed its look"
+    chairs = {c for n, c in looks.items() if n.startswith("chair-")}
+    assert len(chairs) >= 3  # not one chair model for the whole floor

@@ -268,8 +268,17 @@ MALFORMED = [
     ("missing map file", lambda d: d.update(map="nope.yaml"), "map", "map file not found"),
     ("move as text", lambda d: d["sessions"][2].update(move="chair-1"), "sessions[2].move",
      "expected a mapping"),
-    ("unknown object key", lambda d: d["objects"][0].update(colour="red"), "objects[0].colour",
+    ("unknown object key", lambda d: d["objects"][0].update(material="oak"), "objects[0].material",
      "unknown key"),
+    ("colour as a name", lambda d: d["objects"][0].update(colour="red"), "objects[0].colour",
+     "expected [r, g, b] numbers"),
+    ("colour out of range", lambda d: d["objects"][0].update(colour=[300, 0, 0]), "objects[0].colour",
+     "whole numbers from 0 to 255"),
+    ("colour in fractions", lambda d: d["objects"][0].update(colour=[0.5, 0.2, 0.1]), "objects[0].colour",
+     "whole numbers from 0 to 255"),
+    ("added object's colour", lambda d: d["sessions"][2].update(add=[{**d["objects"][0], "name": "new-1",
+                                                                      "colour": [1, 2]}]),
+     "sessions[2].add[0].colour", "expected [r, g, b] numbers"),
 ]
 
 

@@ -20,6 +20,7 @@ from bomc_bt.errors import BomcError
 from bomc_bt.officegen.floor import FloorPlan
 from bomc_bt.officegen.params import ELEVATION, HOT_PLACE, SIZES, OfficeParams
 from bomc_bt.officegen.rooms import RoomSpace
+from bomc_bt.world.looks import model_colour
 
 TRIES = 25  # candidate poses tried before a placement gives up
 
@@ -35,6 +36,8 @@ class Item:
     yaw: float
     size: tuple[float, float, float]
     room: int
+    colour: tuple[int, int, int] | None = None  # RGB 0-255 (officegen.looks), set when first put
+
 
     @property
     def z(self) -> float:
@@ -42,8 +45,11 @@ class Item:
 
     def record(self) -> dict[str, Any]:
         """The world-file form (CONTRACTS section 1)."""
-        return {"name": self.name, "category": self.category, "position": [self.x, self.y, self.z],
-                "size": list(self.size), "yaw": self.yaw}
+        out = {"name": self.name, "category": self.category, "position": [self.x, self.y, self.z],
+               "size": list(self.size), "yaw": self.yaw}
+        if self.colour is not None:
+            out["colour"] = list(self.colour)
+        return out
 
 
 def _r(v: float) -> float:
@@ -70,7 +76,8 @@ class Layout:
     # -- placing -------------------------------------------------------------------------------
     def put(self, item: Item, margin: float = 0.1, keepout: bool = True) -> Item | None:
         """Stand ``item`` (rounded as the file will hold it) if its room accepts it, else None."""
-        item = replace(item, x=_r(item.x), y=_r(item.y), yaw=_r(item.yaw))
+        colour = item.colour or model_colour(self.params.seed, item.name, item.category)
+        item = replace(item, x=_r(item.x), y=_r(item.y), yaw=_r(item.yaw), colour=colour)
         space = self.spaces[item.room]
         if not space.fits(item.x, item.y, item.yaw, item.size, margin, keepout):
             return None

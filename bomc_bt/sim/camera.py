@@ -193,13 +193,14 @@ _OTHER_RGB = (110, 95, 80)  # obstacles and people: unlabelled
 
 
 def _shade(label: np.ndarray, depth: np.ndarray, objects: list) -> np.ndarray:
-    """Flat colour per surface (category colour for objects), darkened with distance."""
+    """Flat colour per surface (an object's own colour, else its category's), darkened with distance."""
     n_labels = max(int(label.max(initial=0)), len(objects))
     palette = np.empty((n_labels + 3, 3), dtype=np.uint8)
     palette[0], palette[1], palette[2] = _WALL_RGB, _FLOOR_RGB, _NONE_RGB
     palette[3:] = _OTHER_RGB
     for i, o in enumerate(objects):
-        palette[i + 3] = category_colour(str(o.category))
+        colour = getattr(o, "colour", None)
+        palette[i + 3] = colour if colour is not None else category_colour(str(o.category))
     rgb = np.take(palette, label + 2, axis=0)
     with np.errstate(invalid="ignore"):  # depth is inf (not NaN) where nothing was hit
         shade = (np.clip(np.float32(1.1) - np.float32(0.06) * depth, 0.5, 1.0) * 255.0).astype(np.uint8)

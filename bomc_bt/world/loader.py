@@ -26,7 +26,7 @@ FORMAT_VERSION = 1
 DEFAULT_WALL_HEIGHT = 2.5
 
 _TOP_KEYS = {"version", "name", "map", "start", "wall_height", "objects", "sessions", "during"}
-_OBJECT_KEYS = {"name", "category", "position", "size", "yaw"}
+_OBJECT_KEYS = {"name", "category", "position", "size", "yaw", "colour"}
 _OBSTACLE_KEYS = {"position", "size", "height", "yaw"}
 _CHANGE_KEYS = {"remove", "move", "add", "obstacles"}
 _DURING_KEYS = {"session", "at"} | _CHANGE_KEYS
@@ -52,7 +52,14 @@ class _Parser(FieldReader):
             position=self.vector(m["position"], join(where, "position"), "[x, y, z]", (3,)),  # type: ignore[arg-type]
             size=self.size(m["size"], join(where, "size"), "[x, y, z]", 3),  # type: ignore[arg-type]
             yaw=yaw,
+            colour=self.colour(m["colour"], join(where, "colour")) if "colour" in m else None,
         )
+
+    def colour(self, value: Any, where: str) -> tuple[int, int, int]:
+        rgb = self.vector(value, where, "[r, g, b]", (3,))
+        if not all(0.0 <= v <= 255.0 and v == int(v) for v in rgb):
+            raise self.fail("expected whole numbers from 0 to 255", where)
+        return int(rgb[0]), int(rgb[1]), int(rgb[2])
 
     def obstacle(self, value: Any, where: str) -> Obstacle:
         m = self.mapping(value, where, _OBSTACLE_KEYS, ("position", "size"))

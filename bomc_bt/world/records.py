@@ -31,6 +31,9 @@ class WorldObject:
     position: tuple[float, float, float]  # centre, map frame, m
     size: tuple[float, float, float]  # box extents x, y, z in its own frame, m
     yaw: float = 0.0
+    # how it looks: RGB 0-255 of its surface; None draws the category's colour (every
+    # object of a kind alike, as in worlds written before objects had colours)
+    colour: tuple[int, int, int] | None = None
 
     def footprint(self) -> np.ndarray:
         """(4, 2) map-frame corners of the rotated box, counter-clockwise."""
@@ -47,8 +50,11 @@ class WorldObject:
 
     def to_dict(self) -> dict[str, Any]:
         """The world-file form of this object (for writers such as :mod:`bomc_bt.worldgen`)."""
-        return {"name": self.name, "category": self.category, "position": list(self.position),
-                "size": list(self.size), "yaw": self.yaw}
+        out = {"name": self.name, "category": self.category, "position": list(self.position),
+               "size": list(self.size), "yaw": self.yaw}
+        if self.colour is not None:
+            out["colour"] = list(self.colour)
+        return out
 
 
 @dataclass(frozen=True)
