@@ -12,10 +12,10 @@ Tables:
 * ``schema_version`` -- one row; an unknown version or a file without our tables is
   refused (:class:`BomcError`). A writer upgrades older stores in place, in one
   transaction, adding empty columns and tables (:mod:`bomc_bt.store_schema`): nothing in
-  them changes meaning. A reader reads versions 2 and 3 as they are.
-* ``nodes`` -- the current state of every id ever issued (removed ones with state
-  ``removed``), so the next id continues from the max id ever issued; with the floor
-  footprint the association learned for it (NULL when unknown).
+  them changes meaning. A reader reads versions 2 to 5 as they are.
+* ``nodes`` -- the current state of every id ever issued (removed ones ``removed``), so the
+  next id continues from the max id ever issued; with the floor footprint the association
+  learned and its colour (``cr``, ``cg``, version 5 on, :mod:`bomc_bt.graph.looks`), or NULL.
 * ``node_history`` -- every event, append-only; :meth:`SiteStore.graph_after` rebuilds
   the graph as it stood at the end of any session from it. Nothing is overwritten.
   ``detail`` (JSON, may be NULL) holds a removal's evidence (misses, seen, merged), marks the
@@ -61,7 +61,9 @@ from bomc_bt.store_schema import (
     SESSION_COLUMNS,
     checked_rows,
     connect,
+    node_columns,
     open_schema,
+    row_node,
 )
 
 FILENAME = "site.db"
@@ -286,11 +288,12 @@ class SiteStore:
                 )
             for n in nodes_changed:
                 box = (None,) * 4 if n.footprint is None else tuple(map(float, n.footprint))
+                look = (None,) * 2 if n.colour is None else tuple(map(float, n.colour))
                 db.execute(
-                    "INSERT OR REPLACE INTO nodes VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    "INSERT OR REPLACE INTO nodes VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                     (int(n.id), n.category, *map(float, _xyz(n.position)), float(n.confidence),
                      int(n.first_session), int(n.last_session), n.state, int(n.observations), int(n.misses),
-                     *box),
+                     *box, *look),
                 )
             for key, value in (progress or {}).items():
                 db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, _progress_text(value)))
@@ -298,7 +301,7 @@ class SiteStore:
     def load_graph(self, params: AssociationParams) -> ObjectGraph:
         """The live graph (present nodes) with the operator's edits it must respect; new ids
         continue past every id ever issued."""
-        nodes = self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
+        nodes = self._nodes("WHERE state=? ORDER BY id", (PRESENT,))
         top = self._query("SELECT MAX(m) FROM (SELECT MAX(id) AS m FROM nodes UNION ALL"
                           " SELECT MAX(id) FROM node_history)", (), "I", "nodes")[0][0]
         edited = self._events(f" WHERE id IN (SELECT id FROM node_history WHERE kind IN {_OPERATOR_SQL})"
@@ -314,16 +317,13 @@ class SiteStore:
     def nodes(self, include_removed: bool = False) -> list[Node]:
         """The current node table (present nodes, or all ids ever issued)."""
         if include_removed:
-            return self._nodes("SELECT * FROM nodes ORDER BY id", ())
-        return self._nodes("SELECT * FROM nodes WHERE state=? ORDER BY id", (PRESENT,))
+            return self._nodes("ORDER BY id", ())
+        return self._nodes("WHERE state=? ORDER BY id", (PRESENT,))
 
-    def _nodes(self, sql: str, args: tuple) -> list[Node]:
-        return [
-            Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses,
-                 None if None in box else np.array(box, dtype=float))
-            for nid, cat, x, y, z, conf, first, last, state, obs, misses, *box
-            in self._query(sql, args, NODE_COLUMNS, "nodes")
-        ]
+    def _nodes(self, tail: str, args: tuple) -> list[Node]:
+        """Nodes of ``SELECT ... FROM nodes <tail>``."""
+        sql = f"SELECT {node_columns(self.version)} FROM nodes {tail}"
+        return [row_node(row) for row in self._query(sql, args, NODE_COLUMNS, "nodes")]
 
     def graph_after(self, session: int) -> list[Node]:
         """The present nodes as they stood at the end of ``session``, replayed from history.

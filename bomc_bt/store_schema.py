@@ -30,17 +30,22 @@ import sqlite3
 import urllib.parse
 from pathlib import Path
 
-from bomc_bt.errors import BomcError
+import numpy as np
 
-SCHEMA_VERSION = 4
-READABLE_VERSIONS = (2, 3, 4)  # a reader reads these as they are (version 2 has no event details,
+from bomc_bt.errors import BomcError
+from bomc_bt.graph.records import Node
+
+SCHEMA_VERSION = 5
+READABLE_VERSIONS = (2, 3, 4, 5)  # a reader reads these as they are (version 2 has no event details,
 # versions before 4 no region history: their change model is the uniform prior)
 FOOTPRINT = ("fx0", "fy0", "fx1", "fy1")
+COLOUR = ("cr", "cg")  # a node's look: (r, g) chromaticity (bomc_bt.graph.looks), version 5 on
 # Upgrades, in place, from each old version: the columns it lacks (table, column). Version 2
 # added the node footprints, version 3 the event details (operator edits, removal evidence),
-# version 4 the region history of the change model (a new table: NEW_TABLES).
+# version 4 the region history of the change model (a new table: NEW_TABLES), version 5 the
+# nodes' colours.
 UPGRADES = {1: (("nodes", "fx0"), ("nodes", "fy0"), ("nodes", "fx1"), ("nodes", "fy1")),
-            2: (("node_history", "detail"),), 3: ()}
+            2: (("node_history", "detail"),), 3: (), 4: (("nodes", "cr"), ("nodes", "cg"))}
 REGION_TABLE = """CREATE TABLE IF NOT EXISTS region_passes (
     session INTEGER NOT NULL, size REAL NOT NULL, i INTEGER NOT NULL, j INTEGER NOT NULL,
     seen REAL NOT NULL, changes INTEGER NOT NULL, stamp REAL,
@@ -54,7 +59,8 @@ CREATE TABLE nodes (
     id INTEGER PRIMARY KEY, category TEXT NOT NULL, x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL,
     confidence REAL NOT NULL, first_session INTEGER NOT NULL, last_session INTEGER NOT NULL,
     state TEXT NOT NULL, observations INTEGER NOT NULL, misses INTEGER NOT NULL,
-    fx0 REAL, fy0 REAL, fx1 REAL, fy1 REAL);
+    fx0 REAL, fy0 REAL, fx1 REAL, fy1 REAL,
+    cr REAL, cg REAL);
 CREATE TABLE node_history (
     seq INTEGER PRIMARY KEY AUTOINCREMENT, id INTEGER NOT NULL, session INTEGER NOT NULL,
     stamp REAL NOT NULL, kind TEXT NOT NULL, category TEXT NOT NULL,
@@ -139,7 +145,7 @@ def _upgrade_sql(db: sqlite3.Connection, version: int) -> str:
     return "".join(statements)
 
 
-_TYPES = {**dict.fromkeys(FOOTPRINT, "REAL"), "detail": "TEXT"}
+_TYPES = {**dict.fromkeys(FOOTPRINT + COLOUR, "REAL"), "detail": "TEXT"}
 
 
 def _script(db: sqlite3.Connection, script: str) -> None:
@@ -156,13 +162,13 @@ def _script(db: sqlite3.Connection, script: str) -> None:
 # text in a number column or broken JSON in a report; that is an error naming the table,
 # column and row, never a crash further on. Kinds: i int, f finite number, s text, j JSON
 # object text, J any JSON text; upper case: NULL allowed.
-NODE_COLUMNS = "isffffiisiiFFFF"
+NODE_COLUMNS = "isffffiisiiFFFFFF"
 EVENT_COLUMNS = "iifssffffFFF"
 SESSION_COLUMNS = "iFsFSSjjj"
 REGION_COLUMNS = "ifiifiF"
 NAMES = {
     "nodes": ("id", "category", "x", "y", "z", "confidence", "first_session", "last_session", "state",
-              "observations", "misses", *FOOTPRINT),
+              "observations", "misses", *FOOTPRINT, *COLOUR),
     "node_history": ("id", "session", "stamp", "kind", "category", "x", "y", "z", "confidence", "px", "py", "pz",
                      "detail"),
     "sessions": ("number", "started_stamp", "started_wall", "ended_stamp", "ended_wall", "outcome", "counts",
@@ -171,6 +177,18 @@ NAMES = {
     "region_passes": ("session", "size", "i", "j", "seen", "changes", "stamp"),
 }
 _INT_LIMIT = 2**62
+
+
+def node_columns(version: int) -> str:
+    """The SELECT list of the ``nodes`` table in a store of ``version`` (no colours before 5)."""
+    return ", ".join("NULL" if c in COLOUR and version < 5 else c for c in NAMES["nodes"])
+
+
+def row_node(row: tuple) -> Node:
+    """A node from a checked row of :func:`node_columns`."""
+    nid, cat, x, y, z, conf, first, last, state, obs, misses, *box, cr, cg = row
+    return Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses,
+                None if None in box else np.array(box, dtype=float), colour=None if None in (cr, cg) else (cr, cg))
 
 
 def checked_rows(rows: list[tuple], kinds: str, path: Path, table: str) -> list[tuple]:

@@ -38,6 +38,8 @@ def test_sync_is_idempotent_and_mirrors_the_site(lab_site, tmp_path, central_url
     assert again.returncode == 0 and "already up to date" in again.stdout, again
     assert central_state(central_url) == state
     assert central_rows(central_url, "lab", "2") == read_local(site / "site.db")
+    nodes = central_rows(central_url, "lab", "2").nodes
+    assert nodes and all(None not in row[-2:] for row in nodes)  # each node's colour (cr, cg) travels too
     assert json.loads((site / "site.json").read_text())["robot"] == "r1"
     assert "password" not in (site / "site.json").read_text()
 

@@ -160,7 +160,8 @@ def test_locked_database_is_a_bomc_error(tmp_path):
 def test_node_footprints_persist_and_a_version_1_store_is_upgraded(tmp_path):
     path = tmp_path / "site.db"
     con = sqlite3.connect(path)  # a store as version 1 wrote it: no footprint columns
-    con.executescript(store_module._SCHEMA.replace(",\n    fx0 REAL, fy0 REAL, fx1 REAL, fy1 REAL", ""))
+    old = store_module._SCHEMA.replace(",\n    fx0 REAL, fy0 REAL, fx1 REAL, fy1 REAL,\n    cr REAL, cg REAL", "")
+    con.executescript(old)
     con.execute("INSERT INTO schema_version VALUES (1)")
     con.execute("INSERT INTO nodes VALUES (3, 'chair', 1, 2, 0.4, 0.9, 1, 1, 'present', 4, 0)")
     con.commit()
@@ -179,3 +180,22 @@ def test_node_footprints_persist_and_a_version_1_store_is_upgraded(tmp_path):
         sliver = Observation("table", np.array([4.5, 5.0, 0.6]), 0.9, 400, 0.2, box=np.array([4.4, 4.7, 4.6, 5.3]))
         events = graph.associate([sliver], [], 3, 1.0)
         assert [e.kind for e in events] == ["updated"] and set(graph.nodes) == {3, 4}
+
+
+def test_node_colours_persist_and_a_version_4_store_is_read_as_it_is_and_upgraded(tmp_path):
+    path = tmp_path / "site.db"
+    con = sqlite3.connect(path)  # a store as version 4 wrote it: no colour columns
+    con.executescript(store_module._SCHEMA.replace(",\n    cr REAL, cg REAL", ""))
+    con.execute("INSERT INTO schema_version VALUES (4)")
+    con.execute("INSERT INTO nodes VALUES (3, 'chair', 1, 2, 0.4, 0.9, 1, 1, 'present', 4, 0, NULL, NULL, NULL, NULL)")
+    con.commit()
+    con.close()
+    with SiteStore(path, readonly=True) as reader:  # read as it is: no colour, nothing written
+        assert reader.version == 4 and reader.nodes()[0].colour is None
+    with SiteStore(path) as store:
+        assert store.load_graph(AssociationParams()).nodes[3].colour is None
+        red = Node(4, "chair", np.array([5.0, 5.0, 0.45]), 0.9, 2, 2, colour=(0.65, 0.18))
+        store.record([], [red])
+    with SiteStore(path, readonly=True) as reader:
+        colours = {n.id: n.colour for n in reader.nodes()}
+        assert reader.version == 5 and colours[3] is None and np.allclose(colours[4], [0.65, 0.18])

@@ -25,7 +25,7 @@ COLUMNS: dict[str, tuple[str, ...]] = {
     "sessions": ("number", "started_stamp", "started_wall", "ended_stamp", "ended_wall", "outcome", "counts",
                  "report", "info"),
     "nodes": ("id", "category", "x", "y", "z", "confidence", "first_session", "last_session", "state",
-              "observations", "misses", "fx0", "fy0", "fx1", "fy1"),
+              "observations", "misses", "fx0", "fy0", "fx1", "fy1", "cr", "cg"),
     "node_history": ("seq", "id", "session", "stamp", "kind", "category", "x", "y", "z", "confidence", "px", "py",
                      "pz", "detail"),
     "progress": ("key", "value"),
@@ -34,6 +34,7 @@ COLUMNS: dict[str, tuple[str, ...]] = {
 ORDER = {"sessions": "number", "nodes": "id", "node_history": "seq", "progress": "key",
          "region_passes": "session, size, i, j"}
 REGION_TABLE_SINCE = 4  # local store version that has region_passes (the change model)
+SINCE = {"detail": 3, "cr": 5, "cg": 5}  # local store version that has the column (read as NULL before)
 
 
 @dataclass
@@ -126,8 +127,9 @@ def write_local(path: Path, rows: GraphRows) -> None:
 
 
 def _local_columns(table: str, version: int) -> str:
-    """The SELECT list of ``table`` in a local store of ``version`` (version 2 has no ``detail``)."""
-    return ", ".join("NULL" if c == "detail" and version < 3 else c for c in COLUMNS[table])
+    """The SELECT list of ``table`` in a local store of ``version`` (version 2 has no ``detail``,
+    versions before 5 no node colours)."""
+    return ", ".join("NULL" if version < SINCE.get(c, 0) else c for c in COLUMNS[table])
 
 
 def _open_local(path: Path, readonly: bool) -> tuple[sqlite3.Connection, int]:

@@ -20,7 +20,7 @@ from typing import Any
 from bomc_bt.errors import BomcError
 
 SCHEMA = "bomc"
-VERSION = 4
+VERSION = 5
 MIGRATION_LOCK = 0x626F6D63  # pg_advisory_xact_lock key of schema changes ("bomc")
 
 _FLOOR = "building text NOT NULL, floor text NOT NULL"
@@ -71,6 +71,9 @@ CREATE TABLE bomc.region_passes ({_GEN}, session integer NOT NULL, size double p
     i integer NOT NULL, j integer NOT NULL, seen double precision NOT NULL, changes integer NOT NULL,
     stamp double precision, PRIMARY KEY (building, floor, generation, session, size, i, j));
 """,
+    # the local store's node colours (site.db schema 5): how each object looks (bomc_bt.graph.looks)
+    5: "ALTER TABLE bomc.nodes ADD COLUMN IF NOT EXISTS cr double precision, "
+       "ADD COLUMN IF NOT EXISTS cg double precision;",
 }
 
 

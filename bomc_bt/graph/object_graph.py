@@ -292,7 +292,7 @@ class ObjectGraph:
     def add(self, o: Observation, session: int, stamp: float) -> Event:
         """A new node, with the next id, where ``o`` was seen."""
         node = Node(self.next_id, o.category, o.position.copy(), float(o.confidence), session, session,
-                    last_seen=stamp)
+                    last_seen=stamp, colour=o.colour)
         self.next_id += 1
         self._index(node)
         self._changed[node.id] = node

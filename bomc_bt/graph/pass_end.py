@@ -10,8 +10,9 @@ in this order:
    (:func:`~bomc_bt.graph.returns.moves_taken_back`);
 2. two nodes that are the two ends of one object become one
    (:func:`~bomc_bt.graph.parts.part_pairs`);
-3. a removal and an addition that were one object moved become one move
-   (:func:`~bomc_bt.graph.relocations.relocation_pairs`).
+3. a removal and an addition that were one object moved become one move: by position
+   (:func:`~bomc_bt.graph.relocations.relocation_pairs`, unless their colours tell them
+   apart), then, of those left, by look (:func:`~bomc_bt.graph.looks.look_pairs`).
 
 Tried and not kept: a move of the pass given to a node of its kind removed in the pass
 whose old place stood nearer the arrival (the story with less motion). On generated
@@ -29,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bomc_bt.graph.extents import BIG_MARGIN
+from bomc_bt.graph.looks import alike, look_pairs
 from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import Event, Node
 from bomc_bt.graph.relocations import relocation_pairs
@@ -67,9 +69,22 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     events = _join_parts(policy, graph, session, stamp)
     removed = [v for v in graph.removed_this_session() if v.first_session < session]
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
-    for v, arrival in relocation_pairs(removed, arrivals, policy.params.relocation_radius):
+    tolerance = policy.params.colour_tolerance
+    near = [(v, a) for v, a in relocation_pairs(removed, arrivals, policy.params.relocation_radius)
+            if not _look_apart(v, a, tolerance)]
+    paired = {n.id for pair in near for n in pair}
+    far = look_pairs([v for v in removed if v.id not in paired], [a for a in arrivals if a.id not in paired],
+                     tolerance, list(graph.nodes.values()))
+    for v, arrival in sorted(near + far, key=lambda p: p[0].id):
         events.extend(policy.moved_to(graph, v, arrival, session, stamp))
     return events
+
+
+def _look_apart(v: Node, a: Node, tolerance: float) -> bool:
+    """Whether both colours are known and tell the two apart: a blue chair new 2 m from where a
+    red one went is another chair."""
+    return tolerance > 0.0 and v.colour is not None and a.colour is not None and not alike(v.colour, a.colour,
+                                                                                            tolerance)
 
 
 def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:

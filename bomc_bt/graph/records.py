@@ -12,6 +12,7 @@ from typing import Literal
 import numpy as np
 
 from bomc_bt.graph.footprints import box_or_none
+from bomc_bt.graph.looks import colour_or_none
 
 PRESENT = "present"
 REMOVED = "removed"
@@ -40,10 +41,13 @@ class Node:
     # when it was loaded from the store and not seen since. Not persisted: it only says how
     # stale a node has grown during the pass at hand (see monitoring.unverified_headings).
     last_seen: float | None = None
+    # how the object looks: (r, g) chromaticity, the running mean of its views' (None: unknown)
+    colour: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.position = np.asarray(self.position, dtype=float).reshape(3)
         self.footprint = box_or_none(self.footprint)
+        self.colour = colour_or_none(self.colour)
 
 
 @dataclass
@@ -60,10 +64,12 @@ class Observation:
     # cut by the image's top edge: the object goes on above what the view shows, so its centre
     # lies higher than this one (a door seen from 2 m: its lower metre)
     above_image: bool = False
+    colour: np.ndarray | None = None  # (r, g) chromaticity of its surface's pixels; None: no colour image
 
     def __post_init__(self) -> None:
         self.position = np.asarray(self.position, dtype=float).reshape(3)
         self.box = box_or_none(self.box)
+        self.colour = colour_or_none(self.colour)
 
 
 def bounded_height(o: Observation, current: float, target: float) -> float:
@@ -159,6 +165,11 @@ class AssociationParams:
     # [m] robust: when a pass ends, a node it removed and a node it added, of one category,
     # each the other's nearest within this, are one object moved (bomc_bt.graph.relocations); 0: off
     relocation_radius: float = 5.0
+    # [-] robust: how far apart two colours may lie (chromaticity: r and g over r + g + b) and be
+    # one object's look; colours that differ part a pair by position, and a removal and an
+    # addition left whose looks match each other, no other and few of their kind are one object
+    # moved, at any distance (bomc_bt.graph.looks); 0: off
+    colour_tolerance: float = 0.04
     position_smoothing: float = 0.3  # [-] robust: running-average weight of a new observation in a node's position
     report_distance: float = 0.1  # [m] robust: drift since the last report that makes a refresh an "updated" event
     vertical_weight: float = 0.5  # [-] robust: weight of height differences in distances (paper: 1)
@@ -235,6 +246,8 @@ class AssociationParams:
             raise ValueError("retract_observations must be 0 to 1000")
         if not 0.0 <= self.relabel_radius <= 2.0:
             raise ValueError("relabel_radius must be in [0, 2] m")
+        if not 0.0 <= self.colour_tolerance <= 0.5:
+            raise ValueError("colour_tolerance must be in [0, 0.5] (0 turns it off)")
 
     def distance(self, category: str) -> float:
         """delta_c: the association distance of ``category``."""

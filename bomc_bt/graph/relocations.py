@@ -23,6 +23,10 @@ with 12 sessions and four Environment-A-size floors with 3 sessions: change F1 0
 0.609 without pairing; mutual nearest within 5 m 0.798 and 0.701, within 8 m 0.775 and
 0.710, within 12 m 0.750 and 0.689, at any distance 0.662 and 0.525.
 
+Where objects differ in colour, two of them that do not look alike are never paired
+here, and the removals and additions left are paired by look at any distance
+(:mod:`bomc_bt.graph.looks`, after these pairs; both in :mod:`bomc_bt.graph.pass_end`).
+
 A node new in this pass that is *first seen* (no earlier pass saw its place,
 :mod:`bomc_bt.first_seen`) is no candidate: it is most likely an object that was always
 there. Algorithm 2 as the paper writes it (``association.mode: paper``) pairs nothing.

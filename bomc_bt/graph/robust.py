@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bomc_bt.graph import pass_end
+from bomc_bt.graph import looks, pass_end
 from bomc_bt.graph.association import near_any, never_looked, sighted_before
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.confusions import confused
@@ -260,6 +260,7 @@ class RobustPolicy:
         graph.relocate(v, target)
         graph.set_confidence(v, max(v.confidence, float(o.confidence)))
         graph.touch(v, session, stamp)
+        looks.blend(v, o.colour)
         if first_in_session or graph.drift_since_report(v) > self.params.report_distance:
             return [graph.report("updated", v, session, stamp)]
         return []
@@ -305,6 +306,8 @@ class RobustPolicy:
         graph.add_observations(v, arrival.observations)
         graph.set_confidence(v, max(v.confidence, arrival.confidence))
         graph.touch(v, session, arrival.last_seen if arrival.last_seen is not None else stamp)
+        if arrival.colour is not None:  # how it looks now
+            v.colour = arrival.colour.copy()
         merged = graph.remove(arrival, session, stamp, merged_into=v.id)
         return [merged, graph.report("moved", v, session, stamp, previous)]
 
@@ -353,4 +356,5 @@ class RobustPolicy:
             self.extents.restart(graph, v, o)
         graph.set_confidence(v, float(o.confidence))
         graph.touch(v, session, stamp)
+        looks.blend(v, o.colour)
         return graph.report("moved", v, session, stamp, previous)

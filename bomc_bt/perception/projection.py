@@ -22,6 +22,7 @@ import numpy as np
 from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import Observation
+from bomc_bt.perception.colour import surface_colour
 from bomc_bt.perception.far_part import far_part
 from bomc_bt.perception.frames import Detection
 from bomc_bt.robot import RGBDFrame
@@ -279,9 +280,10 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         distance = float(np.median(kept[:, 2]))
         box = np.concatenate([lo, hi]) if distance <= params.box_range else None
         _, top, _, _ = _mask_bounds(det.mask)
+        surface = kept[points[:, 2] >= params.floor_height]  # its own surface, not the floor it stands on
         out.append(Observation(det.category, centre, float(det.score), len(cam), horizontal_extent(points, centre),
                                box=box, truncated=truncated(frame.depth, det.mask, distance),
-                               above_image=top == 0))
+                               above_image=top == 0, colour=surface_colour(frame.rgb, surface, frame.K)))
         stats.observations += 1
     return out
 

@@ -1,0 +1,103 @@
+"""How an object looks: its colour, kept per node, and the moves only a colour can find.
+
+Position tells objects of one kind apart only while they stay put. A chair carried to a
+room at the other end of the floor is, to a map keyed by position, a chair gone and a
+chair new, and pairing every such removal with some addition is a coin toss
+(:mod:`bomc_bt.graph.relocations` pairs within ``relocation_radius`` only). What the robot
+can still tell is how each looked: a red chair gone from one room and a red chair new in
+another, when no other red chair came or went in the pass, are one chair moved.
+
+**The colour** of a view is the median chromaticity (r and g over r + g + b) of the pixels
+of its own surface (:func:`bomc_bt.perception.colour.surface_colour`): brightness falls out,
+so distance, shading and exposure change it little, and the median ignores what the mask
+bled onto. A node keeps the running mean of its views' colours (:func:`blend`), saved with
+it (site store schema 5: ``nodes.cr``, ``nodes.cg``). Neutral colours (grey, white, black)
+share one chromaticity, so two grey chairs look alike here, as they do to any camera that
+cannot tell a grey chair from a white one in shadow.
+
+**Pairing by look** (:func:`look_pairs`) runs when the pass ends, after the pairs by
+position, over the removals and additions left: per category, a removal and an addition
+whose colours lie within ``colour_tolerance`` of each other and of no other candidate of
+the pass on either side, and whose look is rare enough among the kind's objects that the
+match is evidence of a move rather than a coincidence (:func:`coincidence`). Two red chairs
+gone and one red chair new stay a removal and an addition each: which of the two moved is
+a guess. A node without a colour (a world without
+colours, a store written before schema 5, the paper's Algorithm 2) is never paired by look,
+so such runs are unchanged.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from bomc_bt.graph.records import Node
+
+VIEWS = 20  # a node's colour is the mean of about its last this many views (older ones fade)
+
+
+def colour_or_none(colour) -> np.ndarray | None:
+    """``colour`` as a float (2,) chromaticity, or None when missing or out of range."""
+    if colour is None:
+        return None
+    c = np.asarray(colour, dtype=float).reshape(2)
+    return c if np.isfinite(c).all() and (c >= 0.0).all() and c.sum() <= 1.0 + 1e-9 else None
+
+
+def blend(v: Node, colour: np.ndarray | None) -> None:
+    """Fold one view's ``colour`` into ``v``'s (the first view sets it)."""
+    if colour is None:
+        return
+    if v.colour is None:
+        v.colour = np.array(colour, dtype=float)
+        return
+    weight = 1.0 / min(max(int(v.observations), 1), VIEWS)
+    v.colour = v.colour + weight * (np.asarray(colour, dtype=float) - v.colour)
+
+
+def alike(a: np.ndarray | None, b: np.ndarray | None, tolerance: float) -> bool:
+    """Whether two colours are one look (False when either is unknown or ``tolerance`` is 0)."""
+    if a is None or b is None or tolerance <= 0.0:
+        return False
+    return float(np.hypot(*(np.asarray(a) - np.asarray(b)))) <= tolerance
+
+
+def look_pairs(removed: Sequence[Node], arrivals: Sequence[Node], tolerance: float,
+               population: Sequence[Node] = ()) -> list[tuple[Node, Node]]:
+    """(removed, arrival) pairs of one category whose colours match each other and no other
+    candidate on either side, where the match is evidence of a move (:func:`coincidence`
+    below 1; ``population``: the map's nodes, to count how common a look is), in the removed
+    nodes' id order."""
+    if tolerance <= 0.0:
+        return []
+    pairs = []
+    for v in sorted(removed, key=lambda n: n.id):
+        twins = [a for a in arrivals if a.category == v.category and alike(v.colour, a.colour, tolerance)]
+        if len(twins) != 1:
+            continue
+        rivals = [w for w in removed if w.category == v.category and alike(w.colour, twins[0].colour, tolerance)]
+        if len(rivals) == 1 and coincidence(v, removed, arrivals, population, tolerance) < 1.0:
+            pairs.append((v, twins[0]))
+    return pairs
+
+
+def coincidence(v: Node, removed: Sequence[Node], arrivals: Sequence[Node], population: Sequence[Node],
+                tolerance: float) -> float:
+    """How many of the pass's candidates of ``v``'s kind would share its look by chance: the
+    larger side's count times the share of the kind's objects that look like ``v``.
+
+    Why: a removal and an addition that look alike are one object moved, or an object taken
+    away while an unrelated one of the same model was brought in. If ``v`` moved, its new
+    place is among the additions for sure; if it was taken away, one of the ``n`` additions
+    matches its look by chance with odds of about ``n`` times the look's share ``p``. The
+    match is evidence of a move only while ``n * p`` is below 1 (the likelihood ratio
+    ``1 / (n p)`` above 1). Where every object of a kind looks alike (a world without
+    colours, a floor of one chair model) ``p`` is 1 and a look pairs nothing, so such runs
+    keep the pairs by position alone."""
+    kind = {n.id: n for n in (*population, *removed, *arrivals) if n.category == v.category and n.colour is not None}
+    share = sum(alike(v.colour, n.colour, tolerance) for n in kind.values()) / max(len(kind), 1)
+    n = max(sum(a.category == v.category for a in arrivals), sum(w.category == v.category for w in removed))
+    return n * share

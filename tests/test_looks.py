@@ -1,0 +1,109 @@
+"""How objects look: colours measured on the pixels, kept per node, and the moves only a
+colour can find when a pass ends (bomc_bt.graph.looks, bomc_bt.perception.colour)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
+from bomc_bt.graph.looks import blend, look_pairs
+from bomc_bt.net_changes import net_changes
+from bomc_bt.perception.colour import surface_colour
+
+# chromaticity of (160, 45, 40), (45, 60, 140), (90, 90, 95), (50, 120, 60), (200, 130, 40)
+RED, BLUE, GREY, GREEN, ORANGE = (0.653, 0.184), (0.184, 0.245), (0.327, 0.327), (0.217, 0.522), (0.541, 0.351)
+
+
+def node(i: int, x: float, colour=None, category: str = "chair", first_session: int = 1) -> Node:
+    return Node(i, category, np.array([x, 0.0, 0.45]), 0.9, first_session, first_session, observations=10,
+                colour=colour)
+
+
+def ids(pairs) -> list[tuple[int, int]]:
+    return [(a.id, b.id) for a, b in pairs]
+
+
+def test_a_removal_and_an_addition_pair_by_look_only_when_the_look_is_theirs_alone():
+    removed = [node(1, 0.0, RED), node(2, 10.0, BLUE), node(3, 20.0, BLUE), node(4, 30.0, None),
+               node(5, 40.0, RED, "trash bin")]
+    arrivals = [node(10, 60.0, RED, first_session=2), node(11, 70.0, BLUE, first_session=2),
+                node(12, 80.0, None, first_session=2), node(13, 90.0, GREY, "trash bin", first_session=2)]
+    floor = [node(100 + k, 100.0 + k, GREY if k % 2 else GREEN) for k in range(20)]  # the map's chairs
+    # the red chair: one red chair gone, one new; two blue chairs gone and one blue one new:
+    # which of them moved is a guess; no colour, no pair; a red bin and a grey bin are two bins
+    assert ids(look_pairs(removed, arrivals, 0.04, floor)) == [(1, 10)]
+    assert look_pairs(removed, arrivals, 0.0, floor) == []
+    two_red = arrivals + [node(14, 95.0, (0.66, 0.19), first_session=2)]  # measured 0.01 off: the same look
+    assert look_pairs(removed, two_red, 0.04, floor) == []
+
+
+def test_a_look_most_of_the_kind_shares_pairs_nothing():
+    removed, arrivals = [node(1, 0.0, GREY), node(2, 10.0, BLUE)], [node(10, 60.0, GREY, first_session=2)]
+    varied = [node(100 + k, 100.0 + k, (RED, BLUE, GREEN, ORANGE, GREY)[k % 5]) for k in range(20)]
+    assert ids(look_pairs(removed, arrivals, 0.04, varied)) == [(1, 10)]  # one chair in five is grey
+    # a floor of grey chairs: a grey chair gone and one new are as likely two chairs as one
+    alike = [node(100 + k, 100.0 + k, GREY) for k in range(20)]
+    assert look_pairs(removed, arrivals, 0.04, alike) == []
+
+
+def test_a_nodes_colour_is_the_running_mean_of_its_views():
+    v = node(1, 0.0)
+    blend(v, np.array(RED))
+    assert np.allclose(v.colour, RED)
+    blend(v, None)  # a view without a colour image changes nothing
+    blend(v, np.array([0.663, 0.184]))
+    assert np.allclose(v.colour, [0.654, 0.184])  # one view of ten
+
+
+def chair_carried(far: float, arrival_colour, tolerance: float = 0.04) -> tuple[ObjectGraph, list]:
+    """A red chair seen in pass 1 at (0, 0); in pass 2 it is gone, and a chair of
+    ``arrival_colour`` stands ``far`` metres away."""
+    params = AssociationParams(confirm_misses=1, confirm_detections=1, colour_tolerance=tolerance)
+    first = ObjectGraph(params)
+    history = []
+    others = [BLUE, GREEN, GREY, ORANGE]  # the floor's other chairs, far off: four other models
+    for t in (0.0, 1.0, 2.0):  # seen in three frames: chairs the map trusts
+        seen = [Observation("chair", np.array([0.0, 0.0, 0.45]), 0.9, 500, colour=RED)]
+        seen += [Observation("chair", np.array([-10.0 * (k + 1), 30.0, 0.45]), 0.9, 500, colour=c)
+                 for k, c in enumerate(others)]
+        history += first.associate(seen, sorted(first.nodes), 1, t)
+    g = ObjectGraph(params, list(first.nodes.values()))
+    history += g.associate([Observation("chair", np.array([far, 0.0, 0.45]), 0.9, 500, colour=arrival_colour)],
+                           [], 2, 10.0)
+    for k in range(12):
+        history += g.associate([], [0] if 0 in g.nodes else [], 2, 11.0 + k)
+    history += g.pair_relocations(2, 40.0)
+    return g, [(c.kind, c.node_id) for c in net_changes(history, 1, lambda _c: 0.7)]
+
+
+def test_a_chair_carried_across_the_floor_keeps_its_id_by_its_colour():
+    g, changes = chair_carried(25.0, (0.66, 0.18))
+    assert changes == [("moved", 0)] and 0 in g.nodes and len(g.nodes) == 5
+    assert np.allclose(g.nodes[0].position[:2], [25.0, 0.0])
+    # the same pass without looks (colour_tolerance 0, or a world without colours): two changes
+    _, blind = chair_carried(25.0, (0.66, 0.18), tolerance=0.0)
+    assert sorted(k for k, _ in blind) == ["added", "removed"]
+    _, no_colour = chair_carried(25.0, None)
+    assert sorted(k for k, _ in no_colour) == ["added", "removed"]
+
+
+def test_a_chair_of_another_colour_near_where_one_went_is_another_chair():
+    _, changes = chair_carried(4.0, BLUE)  # within relocation_radius, but blue, not red
+    assert sorted(k for k, _ in changes) == ["added", "removed"]
+    _, same = chair_carried(4.0, RED)
+    assert same == [("moved", 0)]
+
+
+def test_the_colour_of_a_surface_ignores_its_brightness_and_what_the_mask_bled_onto():
+    K = np.array([[100.0, 0.0, 50.0], [0.0, 100.0, 40.0], [0.0, 0.0, 1.0]])
+    rgb = np.zeros((80, 100, 3), dtype=np.uint8)
+    rgb[:, :] = (200, 200, 195)  # the wall
+    rgb[20:60, 20:60] = (160, 45, 40)  # a red chair, near
+    rgb[20:60, 40:60] = (80, 22, 20)  # and the half of it in shade
+    v, u = np.mgrid[18:62, 18:62]  # its mask spills two pixels onto the wall all round
+    z = np.full(u.size, 2.0)
+    points = np.stack([(u.ravel() - 50.0) / 100.0 * z, (v.ravel() - 40.0) / 100.0 * z, z], axis=1)
+    colour = surface_colour(rgb, points, K)
+    assert colour is not None and np.allclose(colour, RED, atol=0.01)
+    assert surface_colour(None, points, K) is None  # no colour image (a depth-only camera)
+    assert surface_colour(np.zeros_like(rgb), points, K) is None  # all black: no colour to speak of
