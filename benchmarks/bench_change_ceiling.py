@@ -25,6 +25,12 @@ world file instead, e.g. a furnished real map that ``bench_passes.py --map M --k
 left in ``DIR/world.yaml``:
     python benchmarks/bench_change_ceiling.py --world DIR/world.yaml --per-session
 The radii compared default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
+
+``--looks`` gives the ideal reporter eyes for colour too (worlds whose objects have a
+``colour``, as both generators write them): position pairs whose looks differ are dropped,
+and removals and additions left are paired by look as a pass does when it ends
+(:func:`bomc_bt.graph.looks.look_pairs`, ``association.colour_tolerance``):
+    python benchmarks/bench_change_ceiling.py --office 36x28:7503:12 --radius 5 --looks --per-session
 """
 
 from __future__ import annotations
@@ -39,13 +45,17 @@ import numpy as np
 from bomc_bt.change_evaluation import ObjectChange, score_changes, true_changes
 from bomc_bt.config import load_config
 from bomc_bt.graph import Node, ObjectGraph
+from bomc_bt.graph.looks import alike, look_pairs
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.officegen import OfficeParams, generate_office
 from bomc_bt.world import load_world
 
 
-def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float) -> list[ObjectChange]:
-    """What a perfect robot that tells objects apart only by position would report."""
+def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float,
+                 looks: dict[str, np.ndarray] | None = None, tolerance: float = 0.0,
+                 population: list[Node] = ()) -> list[ObjectChange]:
+    """What a perfect robot that tells objects apart only by position would report (with
+    ``looks``, each object's chromaticity by name: also by how they look, as a pass ends)."""
     out = [c for c in truth if c.kind != "moved" or float(np.hypot(*(c.new - c.old)[:2])) <= move_radius]
     far = [c for c in truth if c.kind == "moved" and c not in out]
     removed = [c for c in out if c.kind == "removed"] + [ObjectChange("removed", c.key, c.category, c.old, None)
@@ -53,9 +63,14 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float) -
     added = [c for c in out if c.kind == "added"] + [ObjectChange("added", c.key, c.category, None, c.new)
                                                     for c in far]
     out = [c for c in out if c.kind == "moved"]
-    as_node = {id(c): Node(k, c.category, c.old if c.old is not None else c.new, 1.0, 1, 1)
-               for k, c in enumerate(removed + added)}
-    pairs = relocation_pairs([as_node[id(c)] for c in removed], [as_node[id(c)] for c in added], radius)
+    as_node = {id(c): Node(k, c.category, c.old if c.old is not None else c.new, 1.0, 1, 1,
+                           colour=(looks or {}).get(str(c.key))) for k, c in enumerate(removed + added)}
+    olds, news = [as_node[id(c)] for c in removed], [as_node[id(c)] for c in added]
+    pairs = [(a, b) for a, b in relocation_pairs(olds, news, radius)
+             if looks is None or a.colour is None or b.colour is None or alike(a.colour, b.colour, tolerance)]
+    paired = {n.id for pair in pairs for n in pair}
+    pairs += look_pairs([n for n in olds if n.id not in paired], [n for n in news if n.id not in paired], tolerance,
+                        population)
     paired = {n.id for pair in pairs for n in pair}
     by_id = {as_node[id(c)].id: c for c in removed + added}
     out += [ObjectChange("moved", 0, a.category, by_id[a.id].old, by_id[b.id].new) for a, b in pairs]
@@ -63,9 +78,29 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float) -
     return [ObjectChange(c.kind, k, c.category, c.old, c.new) for k, c in enumerate(out)]  # keyed like nodes
 
 
-def floor_rows(world_path: Path, radii: list[float], config) -> tuple[int, int, int, int, list[tuple]]:
+def world_looks(world) -> dict[str, np.ndarray]:
+    """Each object's chromaticity, by name, as a camera would measure its colour (those with one)."""
+    out = {}
+    for n in range(1, max(world.sessions, default=1) + 1):
+        for state in (world.objects_in_session(n), world.ground_truth(n)):
+            for name, o in state.items():
+                if o.colour is not None and sum(o.colour) > 0:
+                    out[name] = np.asarray(o.colour[:2], dtype=float) / float(sum(o.colour))
+    return out
+
+
+def _population(state: dict, looks: dict[str, np.ndarray]) -> list[Node]:
+    """The objects standing when the previous pass ended, as nodes with their looks (ids
+    clear of the report's): what the map holds to judge how common a look is."""
+    return [Node(-1 - k, category, position, 1.0, 1, 1, colour=looks.get(name))
+            for k, (name, (category, position)) in enumerate(sorted(state.items()))]
+
+
+def floor_rows(world_path: Path, radii: list[float], config, use_looks: bool = False
+               ) -> tuple[int, int, int, int, list[tuple]]:
     """(session pairs, true changes, true moves, moves beyond move_radius, one row per radius)."""
     world = load_world(world_path)
+    looks = world_looks(world) if use_looks else None
     threshold = ObjectGraph(config.association).threshold
     move_radius = config.association.move_radius
     states = []
@@ -77,23 +112,27 @@ def floor_rows(world_path: Path, radii: list[float], config) -> tuple[int, int, 
     far = sum(float(np.hypot(*(c.new - c.old)[:2])) > move_radius for c in moves)
     rows = []
     for radius in radii:
-        f1s, totals = session_f1s(truths, move_radius, radius, threshold)
+        f1s, totals = session_f1s(truths, move_radius, radius, threshold, looks, config.association.colour_tolerance,
+                                  states)
         rows.append((radius, float(np.mean(f1s)), float(np.min(f1s)), *totals.tolist()))
     return len(truths), sum(len(t) for t in truths), len(moves), far, rows
 
 
-def session_f1s(truths: list[list[ObjectChange]], move_radius: float, radius: float, threshold
+def session_f1s(truths: list[list[ObjectChange]], move_radius: float, radius: float, threshold,
+                looks: dict[str, np.ndarray] | None = None, tolerance: float = 0.0, states: list[dict] = ()
                 ) -> tuple[list[float], np.ndarray]:
     """The ideal reporter's change F1 per session (from session 2 on) and the summed tp / fp / fn."""
     f1s, totals = [], np.zeros(3, dtype=int)
     for k, truth in enumerate(truths, start=2):
-        o = score_changes(truth, ideal_report(truth, move_radius, radius), threshold, k, k - 1).overall
+        population = _population(states[k - 2], looks) if looks is not None else []
+        report = ideal_report(truth, move_radius, radius, looks, tolerance, population)
+        o = score_changes(truth, report, threshold, k, k - 1).overall
         f1s.append(o.f1 if o.f1 is not None else 1.0)
         totals += (o.tp, o.mapped - o.tp, o.gt - o.tp)
     return f1s, totals
 
 
-def per_session_line(world_path: Path, config) -> str:
+def per_session_line(world_path: Path, config, use_looks: bool = False) -> str:
     """The ceiling per session at the configured ``relocation_radius``: what a pass's change
     F1 in ``bench_passes.py`` (same world, same session) compares with."""
     world = load_world(world_path)
@@ -102,7 +141,8 @@ def per_session_line(world_path: Path, config) -> str:
               for n in range(1, max(world.sessions, default=1) + 1)]
     truths = [true_changes(a, b, threshold) for a, b in zip(states[:-1], states[1:], strict=True)]
     a = config.association
-    f1s, _ = session_f1s(truths, a.move_radius, a.relocation_radius, threshold)
+    looks = world_looks(world) if use_looks else None
+    f1s, _ = session_f1s(truths, a.move_radius, a.relocation_radius, threshold, looks, a.colour_tolerance, states)
     return "  per session: " + " ".join(f"{k}:{f:.3f}" for k, f in enumerate(f1s, start=2))
 
 
@@ -114,12 +154,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--radius", action="append", type=float, help="pairing radius, m (repeatable; inf: unbounded)")
     p.add_argument("--per-session", action="store_true",
                    help="also print each session's ceiling at the configured relocation_radius")
+    p.add_argument("--looks", action="store_true",
+                   help="the ideal reporter also tells objects apart by colour (worlds whose objects have one; "
+                        "association.colour_tolerance)")
     args = p.parse_args(argv)
     offices = args.office or ([] if args.world else ["36x28:201:12", "93x90:301:3"])
     radii = args.radius or [0.0, 3.0, 5.0, 8.0, 12.0, float("inf")]
     config = load_config()
     print(f"# ideal reporter: move_radius {config.association.move_radius} m, configured relocation_radius "
-          f"{config.association.relocation_radius} m")
+          f"{config.association.relocation_radius} m"
+          + (f", by look too (colour_tolerance {config.association.colour_tolerance})" if args.looks else ""))
     print(f"{'floor':16} {'sessions':>8} {'changes':>7} {'moves':>5} {'far':>4} {'radius m':>8} "
           f"{'mean F1':>7} {'min F1':>6} {'tp':>4} {'fp':>4} {'fn':>4}")
     with tempfile.TemporaryDirectory() as tmp:
@@ -131,12 +175,12 @@ def main(argv: list[str] | None = None) -> int:
             generate_office(OfficeParams(width=width, height=height, seed=int(seed), sessions=int(sessions)), path)
             floors.append((f"{size} s{seed}", path))
         for name, path in floors:
-            n_steps, n_changes, n_moves, n_far, rows = floor_rows(path, radii, config)
+            n_steps, n_changes, n_moves, n_far, rows = floor_rows(path, radii, config, args.looks)
             for radius, mean, low, tp, fp, fn in rows:
                 print(f"{name:16} {n_steps:>8} {n_changes:>7} {n_moves:>5} {n_far:>4} "
                       f"{radius:>8.1f} {mean:>7.3f} {low:>6.3f} {tp:>4} {fp:>4} {fn:>4}", flush=True)
             if args.per_session:
-                print(per_session_line(path, config), flush=True)
+                print(per_session_line(path, config, args.looks), flush=True)
     return 0
 
 
