@@ -20,6 +20,11 @@ import sys
 import tempfile
 from pathlib import Path
 
+# the node table's columns before schema 5 (the colours have their own line, so a run of a
+# version 4 store and one of today's compare line by line)
+_NODE_COLUMNS = ("id, category, x, y, z, confidence, first_session, last_session, state, observations, misses, "
+                 "fx0, fy0, fx1, fy1")
+
 
 def _sha(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()[:16]
@@ -52,7 +57,8 @@ def fingerprint(world: Path, sessions: int, seed: int, config_files: list[str] =
             db = site / "site.db"
             lines.append(f"session {n} succeeded={result.succeeded} sim_time={result.sim_time:.3f} "
                          f"ticks={result.ticks} f1={f1}")
-            lines.append(f"session {n} nodes {_table(db, 'SELECT * FROM nodes ORDER BY id')}")
+            lines.append(f"session {n} nodes {_table(db, f'SELECT {_NODE_COLUMNS} FROM nodes ORDER BY id')}")
+            lines.append(f"session {n} colours {_table(db, 'SELECT id, cr, cg FROM nodes ORDER BY id')}")
             history = _table(db, "SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz "
                                  "FROM node_history ORDER BY seq")
             lines.append(f"session {n} history {history}")
