@@ -21,9 +21,10 @@ whose colours lie within ``colour_tolerance`` of each other and of no other cand
 the pass on either side, and whose look is rare enough among the kind's objects that the
 match is evidence of a move rather than a coincidence (:func:`coincidence`). Two red chairs
 gone and one red chair new stay a removal and an addition each: which of the two moved is
-a guess. A node without a colour (a world without
-colours, a store written before schema 5, the paper's Algorithm 2) is never paired by look,
-so such runs are unchanged.
+a guess. A node without a colour (a camera without a colour image, a node of a store
+written before schema 5 not seen since) is never paired by look, and where every object of
+a kind looks alike (a world without colours: the simulator draws each category in one
+colour) nothing is, so such runs are as they were before colours.
 """
 
 from __future__ import annotations

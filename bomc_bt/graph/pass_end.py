@@ -83,8 +83,9 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
 def _look_apart(v: Node, a: Node, tolerance: float) -> bool:
     """Whether both colours are known and tell the two apart: a blue chair new 2 m from where a
     red one went is another chair."""
-    return tolerance > 0.0 and v.colour is not None and a.colour is not None and not alike(v.colour, a.colour,
-                                                                                            tolerance)
+    if tolerance <= 0.0 or v.colour is None or a.colour is None:
+        return False
+    return not alike(v.colour, a.colour, tolerance)
 
 
 def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:

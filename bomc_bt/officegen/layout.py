@@ -36,8 +36,7 @@ class Item:
     yaw: float
     size: tuple[float, float, float]
     room: int
-    colour: tuple[int, int, int] | None = None  # RGB 0-255 (officegen.looks), set when first put
-
+    colour: tuple[int, int, int] | None = None  # RGB 0-255 (bomc_bt.world.looks), set when first put
 
     @property
     def z(self) -> float:
