@@ -55,15 +55,16 @@ from bomc_bt.json_text import EncodedJSON
 from bomc_bt.json_text import to_jsonable as _jsonable
 from bomc_bt.store_schema import (
     EVENT_COLUMNS,
+    NAMES,
     NODE_COLUMNS,
     REGION_COLUMNS,
     SCHEMA,
     SESSION_COLUMNS,
     checked_rows,
     connect,
-    node_columns,
     open_schema,
     row_node,
+    select_list,
 )
 
 FILENAME = "site.db"
@@ -322,7 +323,7 @@ class SiteStore:
 
     def _nodes(self, tail: str, args: tuple) -> list[Node]:
         """Nodes of ``SELECT ... FROM nodes <tail>``."""
-        sql = f"SELECT {node_columns(self.version)} FROM nodes {tail}"
+        sql = f"SELECT {select_list(NAMES['nodes'], self.version)} FROM nodes {tail}"
         return [row_node(row) for row in self._query(sql, args, NODE_COLUMNS, "nodes")]
 
     def graph_after(self, session: int) -> list[Node]:
@@ -350,9 +351,8 @@ class SiteStore:
         return self._events((" WHERE " + " AND ".join(where) if where else "") + " ORDER BY seq", args)
 
     def _events(self, tail: str, args: tuple) -> list[Event]:
-        detail = "detail" if self.version >= 3 else "NULL"
-        rows = self._query("SELECT id, session, stamp, kind, category, x, y, z, confidence, px, py, pz, "
-                           f"{detail} FROM node_history" + tail, args, EVENT_COLUMNS + "J", "node_history")
+        columns = select_list(NAMES["node_history"], self.version)
+        rows = self._query(f"SELECT {columns} FROM node_history" + tail, args, EVENT_COLUMNS + "J", "node_history")
         for n, row in enumerate(rows):
             if len({v is None for v in row[9:12]}) > 1:  # a previous position is all three or none
                 raise BomcError(f"corrupt site store: node_history row {n + 1} has a partial previous position",

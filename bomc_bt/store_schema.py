@@ -179,13 +179,17 @@ NAMES = {
 _INT_LIMIT = 2**62
 
 
-def node_columns(version: int) -> str:
-    """The SELECT list of the ``nodes`` table in a store of ``version`` (no colours before 5)."""
-    return ", ".join("NULL" if c in COLOUR and version < 5 else c for c in NAMES["nodes"])
+# the store version that added each column a version 2 store lacks (read as NULL before it)
+SINCE = {"detail": 3, **dict.fromkeys(COLOUR, 5)}
+
+
+def select_list(columns: tuple[str, ...], version: int) -> str:
+    """A SELECT list of ``columns`` for a store of ``version``: NULL for a column it lacks."""
+    return ", ".join("NULL" if version < SINCE.get(c, 0) else c for c in columns)
 
 
 def row_node(row: tuple) -> Node:
-    """A node from a checked row of :func:`node_columns`."""
+    """A node from a checked row of the ``nodes`` columns (:func:`select_list` of ``NAMES["nodes"]``)."""
     nid, cat, x, y, z, conf, first, last, state, obs, misses, *box, cr, cg = row
     return Node(nid, cat, np.array([x, y, z]), conf, first, last, state, obs, misses,
                 None if None in box else np.array(box, dtype=float), colour=None if None in (cr, cg) else (cr, cg))

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from bomc_bt.errors import BomcError
-from bomc_bt.store_schema import connect, open_schema
+from bomc_bt.store_schema import connect, open_schema, select_list
 
 COLUMNS: dict[str, tuple[str, ...]] = {
     "sessions": ("number", "started_stamp", "started_wall", "ended_stamp", "ended_wall", "outcome", "counts",
@@ -34,7 +34,6 @@ COLUMNS: dict[str, tuple[str, ...]] = {
 ORDER = {"sessions": "number", "nodes": "id", "node_history": "seq", "progress": "key",
          "region_passes": "session, size, i, j"}
 REGION_TABLE_SINCE = 4  # local store version that has region_passes (the change model)
-SINCE = {"detail": 3, "cr": 5, "cg": 5}  # local store version that has the column (read as NULL before)
 
 
 @dataclass
@@ -129,7 +128,7 @@ def write_local(path: Path, rows: GraphRows) -> None:
 def _local_columns(table: str, version: int) -> str:
     """The SELECT list of ``table`` in a local store of ``version`` (version 2 has no ``detail``,
     versions before 5 no node colours)."""
-    return ", ".join("NULL" if version < SINCE.get(c, 0) else c for c in COLUMNS[table])
+    return select_list(COLUMNS[table], version)
 
 
 def _open_local(path: Path, readonly: bool) -> tuple[sqlite3.Connection, int]:
