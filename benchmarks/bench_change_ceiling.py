@@ -45,7 +45,7 @@ import numpy as np
 from bomc_bt.change_evaluation import ObjectChange, score_changes, true_changes
 from bomc_bt.config import load_config
 from bomc_bt.graph import Node, ObjectGraph
-from bomc_bt.graph.looks import alike, look_pairs
+from bomc_bt.graph.looks import look_pairs, looks_apart
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.officegen import OfficeParams, generate_office
 from bomc_bt.world import load_world
@@ -67,7 +67,7 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float,
                            colour=(looks or {}).get(str(c.key))) for k, c in enumerate(removed + added)}
     olds, news = [as_node[id(c)] for c in removed], [as_node[id(c)] for c in added]
     pairs = [(a, b) for a, b in relocation_pairs(olds, news, radius)
-             if looks is None or a.colour is None or b.colour is None or alike(a.colour, b.colour, tolerance)]
+             if not looks_apart(a, b, tolerance)]
     paired = {n.id for pair in pairs for n in pair}
     pairs += look_pairs([n for n in olds if n.id not in paired], [n for n in news if n.id not in paired], tolerance,
                         population)

@@ -66,6 +66,14 @@ def alike(a: np.ndarray | None, b: np.ndarray | None, tolerance: float) -> bool:
     return float(np.hypot(*(np.asarray(a) - np.asarray(b)))) <= tolerance
 
 
+def looks_apart(a: Node, b: Node, tolerance: float) -> bool:
+    """Whether both colours are known and tell the two apart: a blue chair new 2 m from where a
+    red one went is another chair (False with ``tolerance`` 0: colours off)."""
+    if tolerance <= 0.0 or a.colour is None or b.colour is None:
+        return False
+    return not alike(a.colour, b.colour, tolerance)
+
+
 def look_pairs(removed: Sequence[Node], arrivals: Sequence[Node], tolerance: float,
                population: Sequence[Node] = ()) -> list[tuple[Node, Node]]:
     """(removed, arrival) pairs of one category whose colours match each other and no other

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bomc_bt.graph.extents import BIG_MARGIN
-from bomc_bt.graph.looks import alike, look_pairs
+from bomc_bt.graph.looks import look_pairs, looks_apart
 from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import Event, Node
 from bomc_bt.graph.relocations import relocation_pairs
@@ -71,21 +71,13 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
     tolerance = policy.params.colour_tolerance
     near = [(v, a) for v, a in relocation_pairs(removed, arrivals, policy.params.relocation_radius)
-            if not _look_apart(v, a, tolerance)]
+            if not looks_apart(v, a, tolerance)]
     paired = {n.id for pair in near for n in pair}
     far = look_pairs([v for v in removed if v.id not in paired], [a for a in arrivals if a.id not in paired],
                      tolerance, list(graph.nodes.values()))
     for v, arrival in sorted(near + far, key=lambda p: p[0].id):
         events.extend(policy.moved_to(graph, v, arrival, session, stamp))
     return events
-
-
-def _look_apart(v: Node, a: Node, tolerance: float) -> bool:
-    """Whether both colours are known and tell the two apart: a blue chair new 2 m from where a
-    red one went is another chair."""
-    if tolerance <= 0.0 or v.colour is None or a.colour is None:
-        return False
-    return not alike(v.colour, a.colour, tolerance)
 
 
 def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:
