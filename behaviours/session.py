@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from py_trees.common import Status
 
-from bomc_bt.first_seen import is_first_seen
+from bomc_bt.first_seen import gone_before, is_first_seen
 from bomc_bt.report import write_session_report
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
@@ -38,14 +38,16 @@ class PairRelocations(Leaf):
     become one move (:mod:`bomc_bt.graph.relocations`), and a node that shifted only because
     the pass saw more of it is marked refined (:mod:`bomc_bt.graph.refinement`), written to
     the store at once. A node first seen in this pass (no earlier pass saw its place) is no
-    arrival."""
+    arrival, nor is one standing where an earlier pass saw one of its kind and look go
+    (:mod:`bomc_bt.graph.brought_back`)."""
 
     def update(self) -> Status:
         ctx = self.context
         history = ctx.store.events(session=ctx.session)
         first_seen = {e.node_id for e in history if is_first_seen(e)}
         taken_back = ctx.graph.take_back_moves(ctx.session, ctx.now(), history)
-        paired = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen)
+        gone = gone_before(ctx.store, ctx.session)
+        paired = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen, gone)
         events = taken_back + paired + ctx.graph.mark_refinements(ctx.session, ctx.now())
         if events:
             ctx.store.record(events, ctx.graph.drain_changed())

@@ -31,6 +31,9 @@ The radii compared default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
 and removals and additions left are paired by look as a pass does when it ends
 (:func:`bomc_bt.graph.looks.look_pairs`, ``association.colour_tolerance``):
     python benchmarks/bench_change_ceiling.py --office 36x28:7503:12 --radius 5 --looks --per-session
+An addition within ``association.return_radius`` of where an object of its kind and look went
+in an earlier session (and stayed gone) is that object brought back, never paired
+(:mod:`bomc_bt.graph.brought_back`); ``--return-radius 0`` leaves that out.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ import numpy as np
 from bomc_bt.change_evaluation import ObjectChange, score_changes, true_changes
 from bomc_bt.config import load_config
 from bomc_bt.graph import Node, ObjectGraph
+from bomc_bt.graph.brought_back import brought_back
 from bomc_bt.graph.looks import look_pairs, looks_apart
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.officegen import OfficeParams, generate_office
@@ -53,9 +57,11 @@ from bomc_bt.world import load_world
 
 def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float,
                  looks: dict[str, np.ndarray] | None = None, tolerance: float = 0.0,
-                 population: list[Node] = ()) -> list[ObjectChange]:
+                 population: list[Node] = (), gone: list[Node] = (), return_radius: float = 0.0
+                 ) -> list[ObjectChange]:
     """What a perfect robot that tells objects apart only by position would report (with
-    ``looks``, each object's chromaticity by name: also by how they look, as a pass ends)."""
+    ``looks``, each object's chromaticity by name: also by how they look, as a pass ends;
+    ``gone``: objects earlier sessions took away, as nodes, for the returns)."""
     out = [c for c in truth if c.kind != "moved" or float(np.hypot(*(c.new - c.old)[:2])) <= move_radius]
     far = [c for c in truth if c.kind == "moved" and c not in out]
     removed = [c for c in out if c.kind == "removed"] + [ObjectChange("removed", c.key, c.category, c.old, None)
@@ -66,6 +72,8 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float,
     as_node = {id(c): Node(k, c.category, c.old if c.old is not None else c.new, 1.0, 1, 1,
                            colour=(looks or {}).get(str(c.key))) for k, c in enumerate(removed + added)}
     olds, news = [as_node[id(c)] for c in removed], [as_node[id(c)] for c in added]
+    back = {n.id for n in brought_back(news, gone, return_radius, tolerance)}
+    news = [n for n in news if n.id not in back]
     pairs = [(a, b) for a, b in relocation_pairs(olds, news, radius)
              if not looks_apart(a, b, tolerance)]
     paired = {n.id for pair in pairs for n in pair}
@@ -96,6 +104,16 @@ def _population(state: dict, looks: dict[str, np.ndarray]) -> list[Node]:
             for k, (name, (category, position)) in enumerate(sorted(state.items()))]
 
 
+def _gone(states: list[dict], k: int, looks: dict[str, np.ndarray] | None) -> list[Node]:
+    """The objects standing at the end of some session before ``k - 1`` and not at its end,
+    where they last stood (ids clear of the report's): what a perfect robot saw go."""
+    last: dict = {}
+    for state in states[:k - 2]:
+        last.update(state)
+    return [Node(-100_000 - j, category, position, 1.0, 1, 1, colour=(looks or {}).get(name))
+            for j, (name, (category, position)) in enumerate(sorted(last.items())) if name not in states[k - 2]]
+
+
 def floor_rows(world_path: Path, radii: list[float], config, use_looks: bool = False
                ) -> tuple[int, int, int, int, list[tuple]]:
     """(session pairs, true changes, true moves, moves beyond move_radius, one row per radius)."""
@@ -113,19 +131,20 @@ def floor_rows(world_path: Path, radii: list[float], config, use_looks: bool = F
     rows = []
     for radius in radii:
         f1s, totals = session_f1s(truths, move_radius, radius, threshold, looks, config.association.colour_tolerance,
-                                  states)
+                                  states, config.association.return_radius)
         rows.append((radius, float(np.mean(f1s)), float(np.min(f1s)), *totals.tolist()))
     return len(truths), sum(len(t) for t in truths), len(moves), far, rows
 
 
 def session_f1s(truths: list[list[ObjectChange]], move_radius: float, radius: float, threshold,
-                looks: dict[str, np.ndarray] | None = None, tolerance: float = 0.0, states: list[dict] = ()
-                ) -> tuple[list[float], np.ndarray]:
+                looks: dict[str, np.ndarray] | None = None, tolerance: float = 0.0, states: list[dict] = (),
+                return_radius: float = 0.0) -> tuple[list[float], np.ndarray]:
     """The ideal reporter's change F1 per session (from session 2 on) and the summed tp / fp / fn."""
     f1s, totals = [], np.zeros(3, dtype=int)
     for k, truth in enumerate(truths, start=2):
         population = _population(states[k - 2], looks) if looks is not None else []
-        report = ideal_report(truth, move_radius, radius, looks, tolerance, population)
+        gone = _gone(states, k, looks) if return_radius > 0 else []
+        report = ideal_report(truth, move_radius, radius, looks, tolerance, population, gone, return_radius)
         o = score_changes(truth, report, threshold, k, k - 1).overall
         f1s.append(o.f1 if o.f1 is not None else 1.0)
         totals += (o.tp, o.mapped - o.tp, o.gt - o.tp)
@@ -142,7 +161,8 @@ def per_session_line(world_path: Path, config, use_looks: bool = False) -> str:
     truths = [true_changes(a, b, threshold) for a, b in zip(states[:-1], states[1:], strict=True)]
     a = config.association
     looks = world_looks(world) if use_looks else None
-    f1s, _ = session_f1s(truths, a.move_radius, a.relocation_radius, threshold, looks, a.colour_tolerance, states)
+    f1s, _ = session_f1s(truths, a.move_radius, a.relocation_radius, threshold, looks, a.colour_tolerance, states,
+                         a.return_radius)
     return "  per session: " + " ".join(f"{k}:{f:.3f}" for k, f in enumerate(f1s, start=2))
 
 
@@ -157,12 +177,16 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--looks", action="store_true",
                    help="the ideal reporter also tells objects apart by colour (worlds whose objects have one; "
                         "association.colour_tolerance)")
+    p.add_argument("--return-radius", type=float, metavar="M",
+                   help="association.return_radius for the returns (default: the configured one; 0: off)")
     args = p.parse_args(argv)
     offices = args.office or ([] if args.world else ["36x28:201:12", "93x90:301:3"])
     radii = args.radius or [0.0, 3.0, 5.0, 8.0, 12.0, float("inf")]
     config = load_config()
+    if args.return_radius is not None:
+        config.association.return_radius = args.return_radius
     print(f"# ideal reporter: move_radius {config.association.move_radius} m, configured relocation_radius "
-          f"{config.association.relocation_radius} m"
+          f"{config.association.relocation_radius} m, return_radius {config.association.return_radius} m"
           + (f", by look too (colour_tolerance {config.association.colour_tolerance})" if args.looks else ""))
     print(f"{'floor':16} {'sessions':>8} {'changes':>7} {'moves':>5} {'far':>4} {'radius m':>8} "
           f"{'mean F1':>7} {'min F1':>6} {'tp':>4} {'fp':>4} {'fn':>4}")

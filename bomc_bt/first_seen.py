@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bomc_bt.errors import BomcError
-from bomc_bt.graph import Event
+from bomc_bt.graph import REMOVED, Event, Node
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key, unpack_mask
 from bomc_bt.sightings import unpack_sightings
@@ -155,16 +155,30 @@ def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float,
 def removed_on_evidence(store, session: int) -> dict[str, np.ndarray]:
     """Per category, the (x, y) of the nodes pass ``session`` removed on evidence of absence
     (missed frames, not a merge, not a retraction) and did not bring back in that pass."""
-    last: dict[int, Event] = {}
-    for e in store.events(session=session):
-        if e.kind in ("added", "removed", "moved"):
-            last[e.node_id] = e
     out: dict[str, list] = {}
-    for e in last.values():
-        merged = bool((e.detail or {}).get("merged")) or e.merged_into is not None
-        if e.kind == "removed" and (e.misses or 0) > 0 and not merged and not e.retracted:
+    for e in _last_changes(store.events(session=session)).values():
+        if _gone_on_evidence(e):
             out.setdefault(e.category, []).append(np.asarray(e.position, dtype=float)[:2])
     return {c: np.array(v) for c, v in out.items()}
+
+
+def gone_before(store, session: int) -> list[Node]:
+    """The nodes that passes before ``session`` removed on evidence of absence and that none
+    has seen since, as they last stood, with their looks: where an object of their kind new in
+    ``session`` is one of them brought back (:mod:`bomc_bt.graph.brought_back`)."""
+    ids = {nid for nid, e in _last_changes(store.events(until=session - 1)).items() if _gone_on_evidence(e)}
+    return [n for n in store.nodes(include_removed=True) if n.state == REMOVED and n.id in ids]
+
+
+def _last_changes(events: list[Event]) -> dict[int, Event]:
+    """Each node's last added, removed or moved event of ``events``."""
+    return {e.node_id: e for e in events if e.kind in ("added", "removed", "moved")}
+
+
+def _gone_on_evidence(e: Event) -> bool:
+    """Whether ``e`` removed its node on missed frames (not a merge, not a retraction)."""
+    merged = bool((e.detail or {}).get("merged")) or e.merged_into is not None
+    return e.kind == "removed" and (e.misses or 0) > 0 and not merged and not e.retracted
 
 
 def widen_into_walls(looked: np.ndarray, grid: OccupancyGrid, margin: float) -> np.ndarray:

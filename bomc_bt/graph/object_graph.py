@@ -196,13 +196,14 @@ class ObjectGraph:
         take_back = getattr(self.policy, "take_back_moves", None)
         return [] if take_back is None else take_back(self, session, stamp, history)
 
-    def pair_relocations(self, session: int, stamp: float, candidate: Callable[[Node], bool] = lambda n: True
-                         ) -> list[Event]:
+    def pair_relocations(self, session: int, stamp: float, candidate: Callable[[Node], bool] = lambda n: True,
+                         gone: Sequence[Node] = ()) -> list[Event]:
         """When ``session`` ends: its removals and additions that were one object moved
         become moves (:mod:`bomc_bt.graph.relocations`; ``candidate`` says which added nodes
-        may be such an arrival). The paper's policy pairs nothing."""
+        may be such an arrival, ``gone`` where earlier passes saw objects go: one back there is
+        none). The paper's policy pairs nothing."""
         pair = getattr(self.policy, "pair_relocations", None)
-        return [] if pair is None else pair(self, session, stamp, candidate)
+        return [] if pair is None else pair(self, session, stamp, candidate, gone)
 
     def mark_refinements(self, session: int, stamp: float) -> list[Event]:
         """When ``session`` ends, after its relocations are paired: an ``updated`` event marked

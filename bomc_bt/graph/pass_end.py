@@ -12,7 +12,9 @@ in this order:
    (:func:`~bomc_bt.graph.parts.part_pairs`);
 3. a removal and an addition that were one object moved become one move: by position
    (:func:`~bomc_bt.graph.relocations.relocation_pairs`, unless their colours tell them
-   apart), then, of those left, by look (:func:`~bomc_bt.graph.looks.look_pairs`).
+   apart), then, of those left, by look (:func:`~bomc_bt.graph.looks.look_pairs`); an
+   addition standing where an earlier pass saw one of its kind and look go is that object
+   brought back, never an arrival (:func:`~bomc_bt.graph.brought_back.brought_back`).
 
 Tried and not kept: a move of the pass given to a node of its kind removed in the pass
 whose old place stood nearer the arrival (the story with less motion). On generated
@@ -29,6 +31,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from bomc_bt.graph.brought_back import brought_back
 from bomc_bt.graph.extents import BIG_MARGIN
 from bomc_bt.graph.looks import look_pairs, looks_apart
 from bomc_bt.graph.parts import part_pairs, reference_lengths
@@ -63,13 +66,16 @@ def take_back_moves(policy: RobustPolicy, graph: ObjectGraph, session: int, stam
 
 
 def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float,
-                     candidate: Callable[[Node], bool]) -> list[Event]:
+                     candidate: Callable[[Node], bool], gone: Sequence[Node] = ()) -> list[Event]:
     """Steps 2 and 3: each node the pass removed, paired with a ``candidate`` node it added,
-    moved there."""
+    moved there (``gone``: the nodes earlier passes removed on evidence, as they last stood:
+    an addition at one's place is its return, no arrival)."""
     events = _join_parts(policy, graph, session, stamp)
     removed = [v for v in graph.removed_this_session() if v.first_session < session]
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
     tolerance = policy.params.colour_tolerance
+    back = {n.id for n in brought_back(arrivals, gone, policy.params.return_radius, tolerance)}
+    arrivals = [n for n in arrivals if n.id not in back]
     near = [(v, a) for v, a in relocation_pairs(removed, arrivals, policy.params.relocation_radius)
             if not looks_apart(v, a, tolerance)]
     paired = {n.id for pair in near for n in pair}

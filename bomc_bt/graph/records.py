@@ -170,6 +170,11 @@ class AssociationParams:
     # addition left whose looks match each other, no other and few of their kind are one object
     # moved, at any distance (bomc_bt.graph.looks); 0: off
     colour_tolerance: float = 0.04
+    # [m] robust: when a pass ends, a node it added this near (planar) where an earlier pass
+    # removed one of its category on evidence of absence, not seen since, and of its look where
+    # both are known, is that object brought back: never paired as another's move
+    # (bomc_bt.graph.brought_back); 0: off
+    return_radius: float = 0.35
     position_smoothing: float = 0.3  # [-] robust: running-average weight of a new observation in a node's position
     report_distance: float = 0.1  # [m] robust: drift since the last report that makes a refresh an "updated" event
     vertical_weight: float = 0.5  # [-] robust: weight of height differences in distances (paper: 1)
@@ -248,6 +253,8 @@ class AssociationParams:
             raise ValueError("relabel_radius must be in [0, 2] m")
         if not 0.0 <= self.colour_tolerance <= 0.5:
             raise ValueError("colour_tolerance must be in [0, 0.5] (0 turns it off)")
+        if not 0.0 <= self.return_radius <= 2.0:
+            raise ValueError("return_radius must be in [0, 2] m (0 turns it off)")
 
     def distance(self, category: str) -> float:
         """delta_c: the association distance of ``category``."""

@@ -317,9 +317,9 @@ class RobustPolicy:
         return pass_end.take_back_moves(self, graph, session, stamp, history)
 
     def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
-                         candidate: Callable[[Node], bool]) -> list[Event]:
+                         candidate: Callable[[Node], bool], gone: Sequence[Node] = ()) -> list[Event]:
         """When the pass ends: parts joined, removals paired with additions (:mod:`~bomc_bt.graph.pass_end`)."""
-        return pass_end.pair_relocations(self, graph, session, stamp, candidate)
+        return pass_end.pair_relocations(self, graph, session, stamp, candidate, gone)
 
     def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
         """Consecutive counted misses that remove ``v`` (:func:`~bomc_bt.graph.evidence.misses_needed`
