@@ -33,6 +33,7 @@ import numpy as np
 
 from bomc_bt.graph.brought_back import brought_back
 from bomc_bt.graph.extents import BIG_MARGIN
+from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.looks import look_pairs, looks_apart
 from bomc_bt.graph.parts import part_pairs, reference_lengths
 from bomc_bt.graph.records import Event, Node
@@ -96,7 +97,7 @@ def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: f
     big = {c for c, length in reference.items() if length > policy.params.distance(c) + BIG_MARGIN}
     touch = policy.params.footprint_touch
     for a, b in part_pairs(seen, reference, BIG_MARGIN, policy.co_observed.seen_apart, big, touch):
-        keep, drop = (a, b) if (a.observations, -a.id) >= (b.observations, -b.id) else (b, a)
+        keep, drop = keeper(a, b, session)
         extents.join(graph, keep, drop)
         graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
         graph.add_observations(keep, drop.observations)

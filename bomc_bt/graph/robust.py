@@ -54,6 +54,7 @@ from bomc_bt.graph.confusions import confused
 from bomc_bt.graph.evidence import misses_needed
 from bomc_bt.graph.extents import NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
+from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation, bounded_height
 from bomc_bt.graph.tentative import TentativeSightings
 
@@ -187,7 +188,8 @@ class RobustPolicy:
         object, where the depth image hides it, so it is never expected and never missed.
         Likewise a sliver of a table seen past an obstacle can start a node at one end of
         a table whose node sits at the other. An observation that covers both settles it:
-        the node seen more often keeps its id (position averaged by observations), the
+        the node an earlier pass had, else the one seen more often, keeps its id
+        (:func:`~bomc_bt.graph.identity.keeper`; position averaged by observations), the
         other is removed. A node that was expected but unmatched and lies elsewhere is not
         touched: it may be a second object, and the miss count decides. Nor are two small
         nodes whose whole footprints lie apart (:meth:`NodeExtents.apart`): two chairs side by
@@ -214,7 +216,7 @@ class RobustPolicy:
                 if v is None or other is None or oid == vid or oid in matched or self.co_observed.seen_apart(vid, oid) \
                         or self.extents.separate(graph, other, o) or self.extents.apart(v, other, before[vid][0]):
                     continue
-                keep, drop = (v, other) if (v.observations, -v.id) >= (other.observations, -other.id) else (other, v)
+                keep, drop = keeper(v, other, session)
                 total = max(keep.observations + drop.observations, 1)
                 graph.relocate(keep, (keep.position * keep.observations + drop.position * drop.observations) / total)
                 graph.add_observations(keep, drop.observations)
