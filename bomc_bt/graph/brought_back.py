@@ -13,8 +13,9 @@ move of the same model, the returned object is a second candidate, so the true m
 removal plus an addition (36 x 28 m office, seed 7503, pass 11: chair-9 carried 17.6 m while
 chair-1, of the same navy model, came back to its old place). Beside a removal of the same
 model, the returned object is the removal's only look-alike, so a chair taken away and
-another brought back become one invented move (seed 7421, passes 3 and 8). Taking the
-returns out of the arrivals before any pairing tells both right.
+another brought back become one invented move (the ideal reporter on seed 202, session 5:
+grey chair-12 taken away while grey chair-9 came back to its old place 14 m off). Taking
+the returns out of the arrivals before any pairing tells both right.
 
 ``radius`` ([m], ``association.return_radius``) is how near the old place the new node
 must stand: the error of two estimates of one object's centre, well under the spacing of
