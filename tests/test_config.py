@@ -106,6 +106,7 @@ def test_errors_name_the_file_and_field(tmp_path):
         "exploration: {local_radus: 3}\n": "mine.yaml: exploration.local_radus: unknown key",
         "sim: {dt: fast}\n": "mine.yaml: sim.dt: has the wrong type",
         "association: {mode: clever}\n": "mine.yaml: association",
+        "association: {return_radius: 5}\n": "mine.yaml: association: return_radius must be in [0, 2] m",
         "camera: [1, 2]\n": "mine.yaml: camera: expected a mapping",
         "exploration: {local_radius: 3\n": "mine.yaml: line",
     }
