@@ -72,7 +72,7 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float,
     as_node = {id(c): Node(k, c.category, c.old if c.old is not None else c.new, 1.0, 1, 1,
                            colour=(looks or {}).get(str(c.key))) for k, c in enumerate(removed + added)}
     olds, news = [as_node[id(c)] for c in removed], [as_node[id(c)] for c in added]
-    back = {n.id for n in brought_back(news, gone, return_radius, tolerance)}
+    back = {n.id for n, _ in brought_back(news, gone, return_radius, tolerance)}
     news = [n for n in news if n.id not in back]
     pairs = [(a, b) for a, b in relocation_pairs(olds, news, radius)
              if not looks_apart(a, b, tolerance)]

@@ -40,6 +40,7 @@ import numpy as np
 
 from bomc_bt.first_seen import is_first_seen
 from bomc_bt.graph import Event
+from bomc_bt.graph.brought_back import back_of
 from bomc_bt.graph.refinement import refined_shifts
 
 NET_KINDS = ("removed", "added", "moved")  # the changes
@@ -64,6 +65,7 @@ class NetChange:
     stamp: float  # robot time of that event
     events: int  # raw events of the node in the period
     merged: bool = False  # a removal: folded into a neighbour of its category whose id is not recorded
+    back_of: int | None = None  # an addition: the node an earlier pass saw go from here (graph.brought_back)
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-able dict (positions and times rounded to cm and 0.1 s)."""
@@ -74,7 +76,7 @@ class NetChange:
                 "new": xyz(self.new), "distance_m": round(self.distance, 2), "missing_frames": self.missing_frames,
                 "last_seen_s": None if self.last_seen is None else round(self.last_seen, 1),
                 "session": self.session, "stamp_s": round(self.stamp, 1), "events": self.events,
-                "merged": self.merged}
+                "merged": self.merged, "back_of": self.back_of}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> NetChange:
@@ -84,7 +86,7 @@ class NetChange:
 
         return cls(d["kind"], int(d["node"]), d["category"], xyz(d["old"]), xyz(d["new"]), float(d["distance_m"]),
                    d["missing_frames"], d["last_seen_s"], int(d["session"]), float(d["stamp_s"]), int(d["events"]),
-                   bool(d.get("merged", False)))
+                   bool(d.get("merged", False)), d.get("back_of"))
 
     def describe(self) -> str:
         """One line an operator reads: what, where, and why we think so."""
@@ -93,7 +95,8 @@ class NetChange:
 
         what = f"{self.category} #{self.node_id}"
         if self.kind == "added":
-            text = f"added {what} at {at(self.new)}"
+            back = "" if self.back_of is None else f", back where #{self.back_of} went"
+            text = f"added {what} at {at(self.new)}{back}"
         elif self.kind == FIRST_SEEN:
             text = f"first seen {what} at {at(self.new)} (no earlier pass saw this place)"
         elif self.kind == "moved":
@@ -127,7 +130,7 @@ def net_changes(events: Sequence[Event], since: int | None,
     before = _replay([e for e in events if since is not None and e.session <= since])
     period = [e for e in events if since is None or e.session > since]
     after = _replay(period)
-    refined = refined_shifts(period)
+    refined, back = refined_shifts(period), back_of(period)
     counts: dict[int, int] = {}
     first_added: dict[int, Event] = {}
     for e in period:
@@ -156,7 +159,7 @@ def net_changes(events: Sequence[Event], since: int | None,
         elif now and not was:
             new_to_map = since is not None and nid in first_added and is_first_seen(first_added[nid])
             out.append(NetChange(FIRST_SEEN if new_to_map else "added", nid, a.category, None, pos, 0.0, None,
-                                 None, a.session, a.stamp, counts[nid]))
+                                 None, a.session, a.stamp, counts[nid], back_of=back.get(nid)))
     return sorted(out, key=lambda c: (REPORTED_KINDS.index(c.kind), c.node_id))
 
 

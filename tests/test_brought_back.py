@@ -26,15 +26,15 @@ def test_a_new_node_at_the_place_one_of_its_kind_and_look_went_is_that_one_back(
                 node(12, 10.3, colour=BLUE),  # where a chair of unknown look went: the place decides
                 node(13, 20.0, colour=RED),  # a chair where a bin went: not it
                 node(14, 0.0, 0.25, colour=BLUE)]  # where the red chair went, but blue: another chair
-    assert [n.id for n in brought_back(arrivals, gone, 0.35, 0.04)] == [10, 12]
+    assert [(a.id, g.id) for a, g in brought_back(arrivals, gone, 0.35, 0.04)] == [(10, 1), (12, 2)]
     # a chair set at the next seat of the table, 0.7 m from where one of its model went, is not it
     assert brought_back([node(15, 0.7, colour=RED)], gone, 0.35, 0.04) == []
     assert brought_back(arrivals, gone, 0.0, 0.04) == []  # return_radius 0: off
     # colours off: the place alone
-    assert [n.id for n in brought_back(arrivals, gone, 0.35, 0.0)] == [10, 12, 14]
+    assert [a.id for a, _ in brought_back(arrivals, gone, 0.35, 0.0)] == [10, 12, 14]
 
 
-def passes(return_radius: float) -> list[tuple[str, int]]:
+def passes(return_radius: float) -> tuple[list[tuple[str, bool]], list, int]:
     """Seed 7503's pass 11 on a small scale: two navy (blue) chairs among chairs of other
     models; pass 2 sees chair B gone. Before pass 3, chair A is carried 20 m and B is brought
     back to its old place: the pass sees A gone and two navy chairs new. The net changes of
@@ -60,14 +60,21 @@ def passes(return_radius: float) -> list[tuple[str, int]]:
     for k in range(12):  # A's old place in view, A not there
         history += g.associate([], [a_id] if a_id in g.nodes else [], 3, 45.0 + k)
     history += g.pair_relocations(3, 80.0, gone=gone)
-    return sorted((c.kind, c.node_id == a_id) for c in net_changes(history, 2, lambda _c: 0.7))
+    changes = net_changes(history, 2, lambda _c: 0.7)
+    return sorted((c.kind, c.node_id == a_id) for c in changes), changes, b_id
 
 
 def test_a_chair_brought_back_leaves_the_move_of_its_look_alike_to_be_found():
-    # with the return known: A moved (its id kept), B's return an addition
-    assert passes(0.35) == [("added", False), ("moved", True)]
+    # with the return known: A moved (its id kept), B's return an addition, reported as B back
+    kinds, changes, b_id = passes(0.35)
+    assert kinds == [("added", False), ("moved", True)]
+    back = next(c for c in changes if c.kind == "added")
+    assert back.back_of == b_id and f"back where #{b_id} went" in back.describe()
+    assert back.to_json()["back_of"] == b_id and type(back).from_json(back.to_json()).back_of == b_id
     # without: two navy chairs new and one gone, which one moved a guess: nothing paired
-    assert passes(0.0) == [("added", False), ("added", False), ("removed", True)]
+    kinds, changes, _ = passes(0.0)
+    assert kinds == [("added", False), ("added", False), ("removed", True)]
+    assert all(c.back_of is None for c in changes)
 
 
 def test_the_nodes_gone_before_a_pass_are_those_removed_on_evidence_and_not_seen_since(tmp_path):

@@ -28,22 +28,29 @@ mean change F1 0.872 -> 0.895 (5 higher, none lower); on ten 93 x 90 m floors of
 sessions (fewer earlier removals to come back) 0.748 -> 0.747 (one lower: a bin back at
 its place left a removal and a new bin of one model as the pass's only look-alikes, and
 they were paired). By position alone the pairs are the same either way.
+
+The pass end marks each return with an ``updated`` event whose ``detail`` is
+``{"back_of": <id of the node seen go>}`` (:data:`BACK_OF`), and the change report says so
+(:func:`back_of`; "added chair #71 at (15.77, 25.79), back where #24 went").
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
 from bomc_bt.graph.looks import looks_apart
-from bomc_bt.graph.records import Node
+from bomc_bt.graph.records import Event, Node
+
+BACK_OF = "back_of"  # the key in an ``updated`` event's detail: the id of the node this one is back of
 
 
-def brought_back(arrivals: Sequence[Node], gone: Sequence[Node], radius: float, tolerance: float) -> list[Node]:
-    """The ``arrivals`` standing within ``radius`` (planar, m) of a ``gone`` node of their
-    category whose look does not tell them apart (``tolerance``: the colour tolerance, 0
-    colours off); none when ``radius`` is 0."""
+def brought_back(arrivals: Sequence[Node], gone: Sequence[Node], radius: float, tolerance: float
+                 ) -> list[tuple[Node, Node]]:
+    """(arrival, gone node) for each of the ``arrivals`` standing within ``radius`` (planar,
+    m) of a ``gone`` node of its category whose look does not tell them apart (``tolerance``:
+    the colour tolerance, 0 colours off), the nearest such; none when ``radius`` is 0."""
     if radius <= 0.0 or not gone:
         return []
     by_kind: dict[str, list[Node]] = {}
@@ -51,9 +58,14 @@ def brought_back(arrivals: Sequence[Node], gone: Sequence[Node], radius: float, 
         by_kind.setdefault(g.category, []).append(g)
     back = []
     for a in arrivals:
-        for g in by_kind.get(a.category, ()):
-            near = float(np.hypot(*(a.position[:2] - g.position[:2]))) <= radius
-            if near and not looks_apart(a, g, tolerance):
-                back.append(a)
-                break
+        near = [(float(np.hypot(*(a.position[:2] - g.position[:2]))), g.id, g) for g in by_kind.get(a.category, ())]
+        near = [(d, i, g) for d, i, g in near if d <= radius and not looks_apart(a, g, tolerance)]
+        if near:
+            back.append((a, min(near, key=lambda t: t[:2])[2]))
     return back
+
+
+def back_of(events: Iterable[Event]) -> dict[int, int]:
+    """Per node, the id of the node it was found to be back of (the last mark among ``events``)."""
+    return {int(e.node_id): int(e.detail[BACK_OF]) for e in events
+            if e.kind == "updated" and (e.detail or {}).get(BACK_OF) is not None}

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bomc_bt.graph.brought_back import brought_back
+from bomc_bt.graph.brought_back import BACK_OF, brought_back
 from bomc_bt.graph.extents import BIG_MARGIN
 from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.looks import look_pairs, looks_apart
@@ -75,8 +75,11 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     removed = [v for v in graph.removed_this_session() if v.first_session < session]
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
     tolerance = policy.params.colour_tolerance
-    back = {n.id for n in brought_back(arrivals, gone, policy.params.return_radius, tolerance)}
-    arrivals = [n for n in arrivals if n.id not in back]
+    back = brought_back(arrivals, gone, policy.params.return_radius, tolerance)
+    for arrival, went in back:
+        events.append(graph.report("updated", arrival, session, stamp))
+        events[-1].detail = {BACK_OF: went.id}
+    arrivals = [n for n in arrivals if n.id not in {a.id for a, _ in back}]
     near = [(v, a) for v, a in relocation_pairs(removed, arrivals, policy.params.relocation_radius)
             if not looks_apart(v, a, tolerance)]
     paired = {n.id for pair in near for n in pair}

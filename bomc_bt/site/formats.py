@@ -24,7 +24,7 @@ CHANGE_FORMATS = ("table", "json", "csv")
 OBJECT_COLUMNS = ("id", "category", "x", "y", "z", "confidence", "first_seen", "last_seen", "sessions_seen",
                   "notes", "distance")
 CHANGE_COLUMNS = ("session", "kind", "id", "category", "old_x", "old_y", "new_x", "new_y", "moved_m",
-                  "missing_frames", "merged", "last_seen_session", "last_seen_stamp")
+                  "missing_frames", "merged", "last_seen_session", "last_seen_stamp", "back_of")
 
 
 def format_objects(objects: Sequence[SiteObject], fmt: str, header: dict[str, Any] | None = None) -> str:
@@ -88,7 +88,7 @@ def _object_row(o: SiteObject) -> list[Any]:
 def _change_row(c: dict[str, Any]) -> list[Any]:
     old, new = c["old"] or [None, None], c["new"] or [None, None]
     return [c["session"], c["kind"], c["id"], c["category"], old[0], old[1], new[0], new[1], c["moved_m"],
-            c["missing_frames"], c["merged"], c["last_seen_session"], c["last_seen_stamp"]]
+            c["missing_frames"], c["merged"], c["last_seen_session"], c["last_seen_stamp"], c.get("back_of")]
 
 
 def _describe(c: dict[str, Any]) -> str:
@@ -102,7 +102,7 @@ def _describe(c: dict[str, Any]) -> str:
         words += f" at {at(c['old'])}: " + ("merged into a neighbour" if c["merged"] else
                                            f"missing in {_or_unknown(c['missing_frames'])} frame(s)")
     elif c["kind"] in ("added", "first_seen"):  # first seen: new to the map where no earlier pass looked
-        words += f" at {at(c['new'])}"
+        words += f" at {at(c['new'])}" + ("" if c.get("back_of") is None else f", back where node {c['back_of']} went")
     else:
         words += f" {at(c['old'])} -> {at(c['new'])}, {c['moved_m']:.2f} m"
     if c["last_seen_session"] is not None:
