@@ -29,6 +29,12 @@ sessions (fewer earlier removals to come back) 0.748 -> 0.747 (one lower: a bin 
 its place left a removal and a new bin of one model as the pass's only look-alikes, and
 they were paired). By position alone the pairs are the same either way.
 
+What this costs: an object carried far in an earlier pass whose move that pass did not
+pair (its old node removed, a new node where it went) and later carried back to its old
+place is reported as that new node removed and the old one back, not as one move back.
+The generated worlds never carry an object back to where it stood (only objects taken
+away are brought back), so the measurements above do not show it.
+
 The pass end marks each return with an ``updated`` event whose ``detail`` is
 ``{"back_of": <id of the node seen go>}`` (:data:`BACK_OF`), and the change report says so
 (:func:`back_of`; "added chair #71 at (15.77, 25.79), back where #24 went").
