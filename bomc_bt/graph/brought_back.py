@@ -32,8 +32,8 @@ they were paired). By position alone the pairs are the same either way.
 What this costs: an object carried far in an earlier pass whose move that pass did not
 pair (its old node removed, a new node where it went) and later carried back to its old
 place is reported as that new node removed and the old one back, not as one move back.
-The generated worlds never carry an object back to where it stood (only objects taken
-away are brought back), so the measurements above do not show it.
+The generators move an object to a place drawn anew (only objects taken away are
+brought back to their old places), so the measurements above do not show it.
 
 The pass end marks each return with an ``updated`` event whose ``detail`` is
 ``{"back_of": <id of the node seen go>}`` (:data:`BACK_OF`), and the change report says so
