@@ -37,7 +37,7 @@ brought back to their old places), so the measurements above do not show it.
 
 The pass end marks each return with an ``updated`` event whose ``detail`` is
 ``{"back_of": <id of the node seen go>}`` (:data:`BACK_OF`), and the change report says so
-(:func:`back_of`; "added chair #71 at (15.77, 25.79), back where #24 went").
+(:func:`back_of`; "added chair #N at (x, y), back where #M went").
 """
 
 from __future__ import annotations
