@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from py_trees.common import Status
 
 from bomc_bt.first_seen import gone_before, is_first_seen
+from bomc_bt.graph.brought_back import BACK_OF
 from bomc_bt.report import write_session_report
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
@@ -59,6 +60,9 @@ class PairRelocations(Leaf):
         if taken_back:
             back = [f"{e.category} #{e.node_id}" for e in taken_back[::2]]
             self.feedback_message += f"; {len(back)} move(s) taken back: {', '.join(back[:5])}"
+        returned = [f"{e.category} #{e.node_id}" for e in paired if e.kind == "updated" and BACK_OF in (e.detail or {})]
+        if returned:
+            self.feedback_message += f"; {len(returned)} brought back: {', '.join(returned[:5])}"
         return Status.SUCCESS
 
 

@@ -13,7 +13,7 @@ from behaviours.common import Fail, FailParams, Wait, WaitParams
 from behaviours.perceive import PerceiveAssociate
 from behaviours.save_map import SaveMap
 from behaviours.session import EndSession, EndSessionParams, PairRelocations, StartSession
-from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
+from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
 from bomc_bt.monitoring import FrameResult
 from bomc_bt.robot import RGBDFrame
 
@@ -120,6 +120,29 @@ def test_pair_relocations_leaves_a_first_seen_node_as_it_is(ctx):
     leaf = PairRelocations("Pair", None, ctx)
     assert tick(leaf) == Status.SUCCESS and leaf.feedback_message.startswith("0 removal(s)")
     assert "moved" not in [e.kind for e in ctx.store.events(session=2)] and 0 not in ctx.graph.nodes
+
+
+def test_pair_relocations_reports_a_chair_back_where_an_earlier_pass_saw_it_go(ctx):
+    """Pass 2 saw chair 5 go from (4, 0); in pass 3 chair 0 is gone from (0, 0) and a chair
+    stands at (4.1, 0): chair 5 back, not chair 0 moved 4 m (within relocation_radius)."""
+    params = AssociationParams(confirm_misses=1, confirm_detections=1)
+    chairs = [Node(0, "chair", np.array([0.0, 0.0, 0.45]), 0.9, 1, 1, observations=9),
+              Node(5, "chair", np.array([4.0, 0.0, 0.45]), 0.9, 1, 1, observations=9)]
+    for n in (1, 2):
+        ctx.store.begin_session(n, {"stamp": 0.0})
+    ctx.store.record([Event("added", c.id, "chair", c.position, 1, 1.0) for c in chairs], chairs)
+    ctx.graph = ObjectGraph(params, chairs, next_id=6)
+    ctx.store.record(ctx.graph.associate([], [5], 2, 10.0), ctx.graph.drain_changed())  # chair 5 missed: gone
+    ctx.session = 3
+    events = ctx.graph.associate([Observation("chair", np.array([4.1, 0.0, 0.45]), 0.9, 500, 0.0)], [0], 3, 20.0)
+    ctx.store.record(events, ctx.graph.drain_changed())
+    assert [(e.kind, e.node_id) for e in events] == [("removed", 0), ("added", 6)]
+    leaf = PairRelocations("Pair", None, ctx)
+    assert tick(leaf) == Status.SUCCESS
+    assert leaf.feedback_message == "0 removal(s) paired with an addition as moved; 1 brought back: chair #6"
+    last = ctx.store.events(session=3)[-1]
+    assert (last.kind, last.node_id, last.detail) == ("updated", 6, {"back_of": 5})
+    assert "moved" not in [e.kind for e in ctx.store.events(session=3)] and 0 not in ctx.graph.nodes
 
 
 def test_pair_relocations_takes_back_a_move_onto_a_neighbour_found_late(ctx):
