@@ -165,14 +165,18 @@ def removed_on_evidence(store, session: int) -> dict[str, np.ndarray]:
 def gone_before(store, session: int) -> list[Node]:
     """The nodes that passes before ``session`` removed on evidence of absence and that none
     has seen since, as they last stood, with their looks: where an object of their kind new in
-    ``session`` is one of them brought back (:mod:`bomc_bt.graph.brought_back`)."""
-    ids = {nid for nid, e in _last_changes(store.events(until=session - 1)).items() if _gone_on_evidence(e)}
+    ``session`` is one of them brought back (:mod:`bomc_bt.graph.brought_back`). A node an
+    operator deleted after (``bomc edit``: it was never there) is not among them."""
+    history = [e for e in store.events(until=session, operator=True)
+               if e.session < session or e.kind in ("deleted", "restored")]  # edits filed under this pass too
+    ids = {nid for nid, e in _last_changes(history).items() if _gone_on_evidence(e)}
     return [n for n in store.nodes(include_removed=True) if n.state == REMOVED and n.id in ids]
 
 
 def _last_changes(events: list[Event]) -> dict[int, Event]:
-    """Each node's last added, removed or moved event of ``events``."""
-    return {e.node_id: e for e in events if e.kind in ("added", "removed", "moved")}
+    """Each node's last added, removed or moved event of ``events`` (or an operator's deletion
+    or restoration, where ``events`` hold them)."""
+    return {e.node_id: e for e in events if e.kind in ("added", "removed", "moved", "deleted", "restored")}
 
 
 def _gone_on_evidence(e: Event) -> bool:

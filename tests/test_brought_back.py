@@ -82,15 +82,17 @@ def test_the_nodes_gone_before_a_pass_are_those_removed_on_evidence_and_not_seen
         return Event("removed", nid, "chair", np.array([float(nid), 0.0, 0.45]), session, 1.0,
                      detail={"misses": 0, "merged": False, **detail})
 
-    nodes = [node(i, float(i), colour=RED, session=1) for i in range(1, 7)]
-    for n in nodes[:5]:
+    nodes = [node(i, float(i), colour=RED, session=1) for i in range(1, 8)]
+    for n in nodes[:6]:
         n.state = "removed"
     events = {1: [Event("added", n.id, "chair", n.position, 1, 0.0) for n in nodes],
               2: [removal(1, 2, misses=4),  # missed: gone
                   removal(2, 2, merged=True, merged_into=6),  # a duplicate folded into its twin
                   removal(3, 2, misses=3, retracted=True),  # a sighting the map no longer trusts
-                  removal(4, 2, misses=5), Event("moved", 4, "chair", np.array([4.0, 9.0, 0.45]), 2, 2.0)],
-              3: [removal(5, 3, misses=4)]}  # removed in the pass at hand: not before it
+                  removal(4, 2, misses=5), Event("moved", 4, "chair", np.array([4.0, 9.0, 0.45]), 2, 2.0),
+                  removal(6, 2, misses=4)],  # seen go, then deleted by the operator before pass 3: never there
+              3: [removal(5, 3, misses=4),  # removed in the pass at hand: not before it
+                  Event("deleted", 6, "chair", np.array([6.0, 0.0, 0.45]), 3, 0.0)]}  # the operator's
     with SiteStore(tmp_path / "site.db") as store:
         for n in (1, 2, 3):
             store.begin_session(n, {"stamp": 0.0})
