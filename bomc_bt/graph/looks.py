@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from bomc_bt.graph.records import Node
+    from bomc_bt.graph.records import Node, Observation
 
 VIEWS = 20  # a node's colour is the mean of about its last this many views (older ones fade)
 
@@ -66,7 +66,7 @@ def alike(a: np.ndarray | None, b: np.ndarray | None, tolerance: float) -> bool:
     return float(np.hypot(*(np.asarray(a) - np.asarray(b)))) <= tolerance
 
 
-def looks_apart(a: Node, b: Node, tolerance: float) -> bool:
+def looks_apart(a: Node | Observation, b: Node | Observation, tolerance: float) -> bool:
     """Whether both colours are known and tell the two apart: a blue chair new 2 m from where a
     red one went is another chair (False with ``tolerance`` 0: colours off)."""
     if tolerance <= 0.0 or a.colour is None or b.colour is None:

@@ -290,8 +290,9 @@ class RobustPolicy:
         if v.first_session >= session:
             return None
         gate, radius = self.params.distance(v.category), self.params.sighting_radius
+        tolerance = self.params.colour_tolerance
         near = [(d, n.id, n) for n, d in graph.within(v.category, v.position, self.params.move_radius)
-                if n.id != v.id and n.first_session == session
+                if n.id != v.id and n.first_session == session and not looks.looks_apart(v, n, tolerance)
                 and (d <= gate or not (never_looked(graph, n) or sighted_before(graph, n, v, radius)))]
         return min(near, key=lambda t: t[:2])[2] if near else None
 
@@ -343,7 +344,8 @@ class RobustPolicy:
                 continue
             d = float(np.linalg.norm((v.position - o.position) * graph.index.scale))
             if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]) and not (
-                    d > self.gate(o) and (fresh or sighted_before(graph, o, v, self.params.sighting_radius))):
+                    d > self.gate(o) and (fresh or sighted_before(graph, o, v, self.params.sighting_radius))
+            ) and not looks.looks_apart(v, o, self.params.colour_tolerance):
                 best = (d, v.id, v)
         return None if best is None else best[2]
 
