@@ -16,7 +16,7 @@ from py_trees.common import Status
 
 from bomc_bt.budget_pass import budget_spent, next_within_budget
 from bomc_bt.budget_plan import leg_length
-from bomc_bt.monitor_pass import DetourFinder, DetourParams, drivable_now, miss_stop, pass_exhausted, save_pass
+from bomc_bt.monitor_pass import DetourFinder, DetourParams, miss_stop, pass_exhausted, save_pass
 from bomc_bt.monitoring import DETOURED, MISSED, VISITED
 from bomc_bt.planner import GridPlanner
 from bomc_bt.tree.leaf import Leaf
@@ -81,12 +81,7 @@ class NextWaypoint(Leaf):
 
 @register("FindDetour")
 class FindDetour(Leaf):
-    """Proposes the next untried viewpoint near the current waypoint that still sees it,
-    and that the robot can drive to now (the map with what the navigation's obstacle layer
-    marks, at the planner's radius): a waypoint cut off by a table the map does not have
-    gets no detour behind the same table. Each such detour waited out the navigation's
-    progress timeout with no way there (a real lab's map, 12 passes, pass 6: 30 goals with
-    no path, 450 s of a 977 s pass).
+    """Proposes the next untried viewpoint near the current waypoint that still sees it.
 
     The places tried so far (``detours_tried``: waypoint index -> places) are on the
     blackboard, so a waypoint retried at the end of the pass does not try them again.
@@ -100,12 +95,10 @@ class FindDetour(Leaf):
         ctx = self.context
         i = ctx.traverse.current
         finder = DetourFinder(self.params, self.get("detours_tried") or {})
-        grid = ctx.robot.live_map()
-        reach = drivable_now(grid, ctx.robot.pose(), ctx.robot.obstacle_layer(), ctx.config.sim.planner.robot_radius)
-        goal = finder.next(grid, i, ctx.traverse.waypoint(i), reach)
+        goal = finder.next(ctx.robot.live_map(), i, ctx.traverse.waypoint(i))
         self.set("detours_tried", finder.tried)
         if goal is None:
-            self.feedback_message = f"no detour left for waypoint {i + 1} that the robot can reach now"
+            self.feedback_message = f"no detour left for waypoint {i + 1}"
             return Status.FAILURE
         self.set("goal", goal)
         self.feedback_message = f"detour for waypoint {i + 1} via ({goal.x:.1f}, {goal.y:.1f})"

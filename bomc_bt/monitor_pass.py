@@ -15,13 +15,10 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import MISSED, PENDING, TraversalState, detour_viewpoints
 from bomc_bt.pass_resume import waypoint_progress
-from bomc_bt.stuck import reachable_from
 from bomc_bt.traversal import TraversalPlan
 
 
@@ -125,17 +122,6 @@ def reached_by_detour(driven: float, expected: float, ratio: float, margin: floa
     return driven > ratio * expected + margin
 
 
-def drivable_now(grid: OccupancyGrid, pose: Pose2D | None, obstacles: np.ndarray, radius: float) -> np.ndarray | None:
-    """Mask of the cells of ``grid`` a robot of ``radius`` at ``pose`` can drive to with
-    ``obstacles`` ((N, 2) points: what the navigation's obstacle layer marks) in the way too
-    (:func:`bomc_bt.stuck.reachable_from`); None where that says nothing: no pose, or the
-    robot wedged with no room at all round it (then anywhere may be the way out)."""
-    if pose is None:
-        return None
-    reach = reachable_from(grid, pose, np.asarray(obstacles, dtype=float).reshape(-1, 2), radius)
-    return reach if reach.any() else None
-
-
 @dataclass
 class DetourParams:
     """Where the ``FindDetour`` leaf looks for a detour around a blocked waypoint."""
@@ -152,15 +138,12 @@ class DetourFinder:
     params: DetourParams
     tried: dict[int, list[tuple[float, float]]] = field(default_factory=dict)  # waypoint -> places tried
 
-    def next(self, grid: OccupancyGrid, index: int, target: Pose2D,
-             reachable: np.ndarray | None = None) -> Pose2D | None:
-        """The nearest untried detour for waypoint ``index`` at ``target``, facing it, among
-        the cells of ``reachable`` (where the robot can drive now; None: anywhere); None if
-        none is left."""
+    def next(self, grid: OccupancyGrid, index: int, target: Pose2D) -> Pose2D | None:
+        """The nearest untried detour for waypoint ``index`` at ``target``, facing it; None if none is left."""
         tried = self.tried.setdefault(index, [])
         p = self.params
         options = detour_viewpoints(grid, (target.x, target.y), p.radius, p.count, p.clearance,
-                                    avoid=[(target.x, target.y), *tried], reachable=reachable)
+                                    avoid=[(target.x, target.y), *tried])
         if not options:
             return None
         x, y = options[0]

@@ -133,14 +133,13 @@ class TraversalState:
 
 def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: float, count: int,
                       clearance: float, avoid: list[tuple[float, float]] = (),
-                      avoid_radius: float = 0.5, reachable: np.ndarray | None = None) -> list[tuple[float, float]]:
+                      avoid_radius: float = 0.5) -> list[tuple[float, float]]:
     """Free places within ``radius`` of a blocked waypoint that still see it.
 
     Candidates lie on rings around the target; each keeps ``clearance`` from obstacles
     (so the robot fits there) and has a clear line of sight to the target through known
     free cells (so the camera sees the same area). Nearest first; places near ``avoid``
-    (detours already tried) are left out, and so are cells outside ``reachable`` (a mask
-    of the grid: where the robot can drive now) when it is given.
+    (detours already tried) are left out.
     """
     free = grid.free_mask()
     dist = cv2.distanceTransform(free.astype(np.uint8), cv2.DIST_L2, 5) * grid.resolution
@@ -152,8 +151,6 @@ def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: 
     rows, cols = grid.world_to_cell(xs, ys)
     ok = grid.in_bounds(rows, cols)
     ok[ok] = dist[rows[ok], cols[ok]] >= clearance
-    if reachable is not None:
-        ok[ok] = reachable[rows[ok], cols[ok]]
     for ax, ay in avoid:
         ok &= np.hypot(xs - ax, ys - ay) > avoid_radius
     picks = [(float(x), float(y)) for x, y in zip(xs[ok], ys[ok], strict=True)

@@ -107,24 +107,6 @@ def test_find_detour_fails_when_no_place_sees_the_waypoint(ctx, robot):
     assert tick(FindDetour("Find", DetourParams(), ctx)) == Status.FAILURE
 
 
-def test_find_detour_proposes_only_places_the_robot_can_drive_to_now(ctx, robot):
-    # A row of tables the map does not have, marked by the obstacle layer, stands across the
-    # room at y = 2.8: the robot is on its far side (y = 1.5), the waypoint at (5, 5) and
-    # every place within 2 m of it on the near one.
-    robot.place(Pose2D(5.0, 1.5, 0.0))
-    xs = np.arange(0.0, 10.0, 0.05)
-    robot.layer = np.stack([xs, np.full_like(xs, 2.8)], axis=1)
-    state = start_pass(ctx, (5, 5))
-    state.next()
-    leaf = FindDetour("Find", DetourParams(radius=2.0, count=6, clearance=0.45), ctx)
-    assert tick(leaf) == Status.FAILURE  # every place that sees the waypoint lies behind the table
-    assert "can reach now" in leaf.feedback_message
-    robot.layer = robot.layer[np.abs(robot.layer[:, 0] - 8.0) > 0.8]  # a gap at x = 8: a way round
-    assert tick(leaf) == Status.SUCCESS
-    robot.layer = np.zeros((0, 2))  # nothing in the way
-    assert tick(leaf) == Status.SUCCESS
-
-
 def test_plan_gap_viewpoints_adds_the_phase_once_and_reads_the_range_from_the_config(ctx, robot):
     state = start_pass(ctx, (2, 2))
     ctx.perception = SimpleNamespace(coverage=Coverage(robot.grid))
