@@ -28,8 +28,10 @@
   relocation lets a user ask "where did chair 12 go?". The other order too: when an older node's absence is
   confirmed and a node of its category new in this session stands within ``move_radius``, that node is folded
   into the old one, which moves there (the robot saw the chair's new place before its old one). Neither way
-  beyond delta_c to a place no earlier pass looked at: that object was always there. A shift while its
-  footprint grew over the old one is no move (:mod:`bomc_bt.graph.refinement`).
+  beyond delta_c to a place no earlier pass looked at: that object was always there; nor between two whose
+  colours tell them apart (:func:`~bomc_bt.graph.looks.looks_apart`): a yellow bin put near where a blue one
+  went is another bin. A shift while its footprint grew over the old one is no move
+  (:mod:`bomc_bt.graph.refinement`).
 * *Retract, not remove, what was barely seen.* A node matched in at most ``retract_observations`` frames in all
   (by default: never matched again after the two sightings of a look-alike that confirmed it) that misses take
   off is marked retracted: the map drops it either way, but the change report does not tell the operator an
@@ -286,7 +288,8 @@ class RobustPolicy:
         older ``v`` whose absence is now confirmed: most likely ``v``'s object, moved, seen
         at its new place before its old place was checked (nearest, then lowest id). Beyond
         ``v``'s own gate, not a node at a place no earlier pass looked, nor one where the
-        previous pass detected another object of its category: likely always there."""
+        previous pass detected another object of its category: likely always there; never one
+        whose colour tells it apart from ``v``'s."""
         if v.first_session >= session:
             return None
         gate, radius = self.params.distance(v.category), self.params.sighting_radius
@@ -336,7 +339,7 @@ class RobustPolicy:
         gate, none where no earlier pass looked or the previous pass detected another). A
         node with only some misses is no candidate: one missed frame let a neighbouring chair,
         seen for the first time, take its id. Its absence confirmed, :meth:`_arrival` still
-        makes it a move."""
+        makes it a move. Never a node whose colour tells it apart from ``o``'s."""
         fresh = never_looked(graph, o)
         best: tuple[float, int, Node] | None = None
         for v in graph.removed_this_session():
