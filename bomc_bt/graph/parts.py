@@ -194,3 +194,40 @@ def _held(box: np.ndarray, joint: np.ndarray) -> float:
     """How much of ``joint``'s long side ``box`` spans (m): a part's share of the length."""
     axis = 0 if joint[2] - joint[0] >= joint[3] - joint[1] else 1
     return float(box[axis + 2] - box[axis])
+
+
+def parts_of_gone(gone: Iterable[Node], arrivals: Iterable[Node], margin: float,
+                  seen_apart: Callable[[int, int], bool], unlike: Callable[[Node, Node], bool],
+                  small: Callable[[str], float]) -> list[tuple[Node, Node]]:
+    """Pairs of nodes the pass added that are two parts of one object it removed: a big
+    object carried off and seen at its new place in two parts, never both in one frame. The
+    object's own footprint from earlier passes tells how big it is where the category's
+    views this pass do not (one sofa on the floor, seen whole only as a sliver). ``gone``:
+    nodes of earlier passes the pass removed; a pair joins when it is of the gone node's
+    category and look (``unlike``: their colours tell them apart), the gone node is big (its
+    footprint longer than ``small(category)``), the pair's joint box is no bigger than the gone
+    node's footprint in either direction (plus ``margin``) and the shorter of the two is a part
+    of that length (``PART_SHARE``). Each node is in at most one pair, nearest pairs first."""
+    arrivals = [a for a in arrivals if a.footprint is not None]
+    candidates = []
+    for v in gone:
+        if v.footprint is None or longest_side(v.footprint) <= small(v.category):
+            continue
+        length, across = longest_side(v.footprint) + margin, shortest_side(v.footprint) + margin
+        mine = [a for a in arrivals if a.category == v.category and not unlike(v, a)]
+        for i, a in enumerate(mine):
+            for b in mine[i + 1:]:
+                joint = union(a.footprint, b.footprint)
+                shorter = min(_held(a.footprint, joint), _held(b.footprint, joint))
+                if (longest_side(joint) <= length and shortest_side(joint) <= across
+                        and shorter <= PART_SHARE * longest_side(v.footprint) and not seen_apart(a.id, b.id)):
+                    gap = float(np.hypot(*(a.position[:2] - b.position[:2])))
+                    candidates.append((gap, v.id, min(a.id, b.id), max(a.id, b.id), a, b))
+    candidates.sort(key=lambda c: c[:4])
+    used: set[int] = set()
+    pairs = []
+    for _, v_id, _, _, a, b in candidates:
+        if not {v_id, a.id, b.id} & used:
+            used |= {v_id, a.id, b.id}
+            pairs.append((a, b))
+    return pairs

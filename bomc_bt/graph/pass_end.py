@@ -35,7 +35,7 @@ from bomc_bt.graph.brought_back import BACK_OF, brought_back
 from bomc_bt.graph.extents import BIG_MARGIN
 from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.looks import look_pairs, looks_apart
-from bomc_bt.graph.parts import part_pairs, reference_lengths
+from bomc_bt.graph.parts import part_pairs, parts_of_gone, reference_lengths
 from bomc_bt.graph.records import Event, Node
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.returns import moves_taken_back
@@ -91,20 +91,33 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
 
 
 def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:
-    """Two nodes the pass saw that are the two ends of one object become one, in the middle."""
+    """Two nodes the pass saw that are the two ends of one object become one, in the middle:
+    by the size the category shows this pass, then by the size of an object the pass removed
+    whose parts they are (:func:`~bomc_bt.graph.parts.parts_of_gone`: carried off and seen in
+    two parts at its new place, it then pairs with its old node as a move)."""
     if not policy.extents.boxes or not policy.params.separate_neighbours:
         return []
-    seen, events = [v for v in graph.nodes.values() if v.last_session == session], []
-    extents = policy.extents
+    seen = [v for v in graph.nodes.values() if v.last_session == session]
+    extents, events = policy.extents, []
     reference = reference_lengths(seen, extents.longest_whole(graph), policy.params.distance, BIG_MARGIN)
     big = {c for c, length in reference.items() if length > policy.params.distance(c) + BIG_MARGIN}
-    touch = policy.params.footprint_touch
-    for a, b in part_pairs(seen, reference, BIG_MARGIN, policy.co_observed.seen_apart, big, touch):
-        keep, drop = keeper(a, b, session)
-        extents.join(graph, keep, drop)
-        graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
-        graph.add_observations(keep, drop.observations)
-        graph.set_confidence(keep, max(keep.confidence, drop.confidence))
-        events.append(graph.remove(drop, session, stamp, merged_into=keep.id))
-        events.append(graph.report("updated", keep, session, stamp))
+    touch, seen_apart = policy.params.footprint_touch, policy.co_observed.seen_apart
+    for a, b in part_pairs(seen, reference, BIG_MARGIN, seen_apart, big, touch):
+        events += _join(policy, graph, a, b, session, stamp)
+    gone = [v for v in graph.removed_this_session() if v.first_session < session]
+    arrivals = [v for v in graph.nodes.values() if v.first_session == session]
+    tolerance = policy.params.colour_tolerance
+    for a, b in parts_of_gone(gone, arrivals, BIG_MARGIN, seen_apart, lambda v, a: looks_apart(v, a, tolerance),
+                              lambda c: policy.params.distance(c) + BIG_MARGIN):
+        events += _join(policy, graph, a, b, session, stamp)
     return events
+
+
+def _join(policy: RobustPolicy, graph: ObjectGraph, a: Node, b: Node, session: int, stamp: float) -> list[Event]:
+    """``a`` and ``b`` become one node in the middle of their joint footprint."""
+    keep, drop = keeper(a, b, session)
+    policy.extents.join(graph, keep, drop)
+    graph.relocate(keep, np.array([*((keep.footprint[:2] + keep.footprint[2:]) / 2.0), keep.position[2]]))
+    graph.add_observations(keep, drop.observations)
+    graph.set_confidence(keep, max(keep.confidence, drop.confidence))
+    return [graph.remove(drop, session, stamp, merged_into=keep.id), graph.report("updated", keep, session, stamp)]
