@@ -151,22 +151,27 @@ def reachable_from(grid: OccupancyGrid, pose: Pose2D, extra: np.ndarray, radius:
     """Bool mask of the cells a robot of ``radius`` at ``pose`` can drive to on ``grid``
     with the points ``extra`` (scan returns off the map) as obstacles too.
 
-    Unknown cells are obstacles (the planner does not plan through them). A robot whose
-    own cell is too near an obstacle (pressed against a chair) starts from the free cells
-    within ``radius`` of it.
+    As the planner sees it: a cell is open when it keeps ``radius`` from every occupied
+    cell and return, and is not unknown (the planner does not plan through unknown map),
+    except within ``radius`` of the robot: it stands there (on a table's lidar shadow on the
+    saved map, say), so that is free. A robot whose own cell is too near an obstacle
+    (pressed against a chair) starts from the open cells within ``radius`` of it.
     """
-    blocked = ~grid.free_mask()
+    walls = grid.occupied_mask()
     if len(extra):
         rows, cols = grid.world_to_cell(extra[:, 0], extra[:, 1])
         ok = grid.in_bounds(rows, cols)
-        blocked = blocked.copy()
-        blocked[rows[ok], cols[ok]] = True
-    clearance = cv2.distanceTransform((~blocked).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    room = clearance * grid.resolution >= radius
-    count, labels = cv2.connectedComponents(room.astype(np.uint8), connectivity=8)
+        walls = walls.copy()
+        walls[rows[ok], cols[ok]] = True
+    clearance = cv2.distanceTransform((~walls).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    room = (clearance * grid.resolution >= radius) & ~grid.unknown_mask()
     r, c = grid.world_to_cell(pose.x, pose.y)
     k = int(np.ceil(radius / grid.resolution))
     r0, c0 = max(int(r) - k, 0), max(int(c) - k, 0)
+    rr, cc = np.mgrid[r0:int(r) + k + 1, c0:int(c) + k + 1]
+    under = grid.in_bounds(rr, cc) & (np.hypot(rr - r, cc - c) * grid.resolution <= radius)
+    room[rr[under], cc[under]] |= clearance[rr[under], cc[under]] * grid.resolution >= radius
+    count, labels = cv2.connectedComponents(room.astype(np.uint8), connectivity=8)
     seeds = np.unique(labels[r0:int(r) + k + 1, c0:int(c) + k + 1])
     seeds = seeds[seeds > 0]
     return np.isin(labels, seeds) if len(seeds) else np.zeros_like(room)

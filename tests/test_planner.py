@@ -104,6 +104,27 @@ def test_start_hugging_a_wall_escapes():
     assert planner.traversable(path[1])
 
 
+def test_a_robot_standing_on_the_tip_of_a_tables_lidar_shadow_plans_out_of_it():
+    # Traced on a generated 36 x 28 m office (seed 7911, pass 8): a viewpoint reached at the
+    # tip of the shadow a table cast on the saved map while it was built; the robot stood
+    # on unknown cells, every later goal failed at once, and the pass ended there.
+    data = room(6, 6)
+    block(data, 3.0, 5.0, 2.0, 4.0, UNKNOWN)  # the table's shadow
+    planner = GridPlanner(grid(data))
+    start = (3.1, 3.0)  # two map cells into the shadow
+    assert not planner.traversable(start)
+    path = planner.plan(start, (1.0, 5.0))
+    assert path is not None and np.allclose(path[0], start) and planner.traversable(path[1])
+    assert planner.plan((3.6, 3.0), (1.0, 5.0)) is None  # deep inside: not under the robot
+    # standing on free floor, the line out never crosses unknown cells: a one-cell hole in
+    # a wall is no way through it
+    data = room(6, 6)
+    block(data, 3.0, 3.1, 0.0, 6.0)  # a wall across the room ...
+    block(data, 3.0, 3.1, 2.95, 3.05, UNKNOWN)  # ... with a hole the lidar left at a grazing angle
+    planner = GridPlanner(grid(data))
+    assert planner.plan((2.95, 3.0), (5.0, 3.0)) is None
+
+
 def test_unknown_space_only_with_allow_unknown():
     data = room(10, 4)
     block(data, 4.0, 6.0, 0.1, 3.9, UNKNOWN)  # an unexplored band across the room

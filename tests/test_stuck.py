@@ -139,6 +139,22 @@ def test_a_robot_pressed_against_the_object_still_finds_its_own_room():
     assert found.cause == BOXED_IN and found.reachable_area_m2 > 5.0
 
 
+def test_a_robot_on_a_tables_lidar_shadow_reaches_what_the_planner_would():
+    # the saved map holds the shadow a table cast while it was built as unknown; the robot
+    # stands on its tip, two cells in (generated 36 x 28 m office, seed 7911, pass 8: it was
+    # "boxed in, 0.0 of 0.0 m² within reach" and the pass ended there)
+    saved = two_rooms()
+    data = saved.data.copy()
+    r0, c0 = saved.world_to_cell(3.4, 0.8)
+    r1, c1 = saved.world_to_cell(4.4, 2.2)
+    data[int(r0):int(r1) + 1, int(c0):int(c1) + 1] = -1
+    shadowed = OccupancyGrid(data, RES, saved.origin)
+    on_tip = Pose2D(3.45, 1.5, 0.0)
+    found = diagnose(shadowed, on_tip, cast(saved, on_tip), BEYOND, [(8.0, 2.5)], PARAMS, RADIUS)
+    assert found.cause == STALE_OBSTACLES  # the way to the right room is open
+    assert found.reachable_area_m2 > 15.0  # both rooms, less the shadow
+
+
 def test_the_watch_starts_a_round_after_missed_waypoints_in_a_row_or_no_progress():
     watch = StuckWatch(start=0.0)
     for i in range(2):
