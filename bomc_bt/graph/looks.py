@@ -24,7 +24,9 @@ gone and one red chair new stay a removal and an addition each: which of the two
 a guess. A node without a colour (a camera without a colour image, a node of a store
 written before schema 5 not seen since) is never paired by look, and where every object of
 a kind looks alike (a world without colours: the simulator draws each category in one
-colour) nothing is, so such runs are as they were before colours.
+colour) nothing is, so such runs are as they were before colours, but for a kind with no
+object on the map other than the pass's removals and additions (one sofa on the floor): its
+look is judged by the floor's looks of every kind (:func:`coincidence`).
 """
 
 from __future__ import annotations
