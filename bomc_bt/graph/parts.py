@@ -73,7 +73,10 @@ one 0.8 m further along, were joined into one (joint box 1.52 x 2.33 m); the end
 joined there were 0.85-0.98 m across, the tables' width with the mask's bleed. Not the
 widest footprints: a tenth of that floor's table footprints reached 1.3-1.6 m across, and
 against them the side-by-side tables were still joined. Nor the gap between the two (what
-hides a table's middle is a chair): ends of 1.6 m tables lay 0.65-0.88 m apart.
+hides a table's middle is a chair): ends of 1.6 m tables lay 0.65-0.88 m apart. A pair
+wider than that only by one end's bleed still joins: the other end is no wider than the
+category and the pair no wider than the wider end (the two lie along one line; tables side by
+side and doors across a corridor lie beside each other).
 """
 
 from __future__ import annotations
