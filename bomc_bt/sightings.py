@@ -22,7 +22,8 @@ Only the previous recorded pass counts: a chair seen in pass 1, taken away befor
 (which saw the place empty) and brought back before pass 3 *was* added for pass 3. So
 does a node the previous pass removed on evidence of absence (missed frames, not a merge,
 and not brought back in that pass): its sightings there were of an object it then saw
-gone, and that pass reported the removal, so the object back there is an addition
+gone, and that pass reported the removal, so the object back there is an addition; and so
+does one it removed so and then paired with an addition elsewhere as a move
 (:meth:`~bomc_bt.first_seen.SeenBefore.mark`; a bin taken away during a pass after the
 robot saw it and brought back before the next was first seen, and the map's story stayed
 "removed"). A true addition that lands where the previous pass saw another object of its

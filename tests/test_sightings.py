@@ -135,6 +135,36 @@ def test_an_object_back_where_the_previous_pass_saw_it_and_then_saw_it_gone_is_a
         assert events[2].detail == {FIRST_SEEN: True, SIGHTED_IN: 2}  # removed and brought back in pass 2
 
 
+def test_an_object_back_where_the_previous_pass_saw_it_go_before_pairing_it_with_a_move_is_added(tmp_path):
+    """Seed 7915 (36 x 28 m office), passes 8-9: a bin the robot saw early in pass 8 was
+    taken away during it; its node was removed on its misses, and when the pass ended paired
+    with a bin brought in 3 m away ("moved"). Brought back to its place before pass 9 it was
+    first seen, since pass 8 had detected a bin there. Its old place was seen empty all the
+    same: an object back there is an addition. A node removed and paired with a move to
+    where it stood is no such place."""
+    grid = grid_10m()
+    one, two = Sightings(grid), Sightings(grid)
+    one.add([obs(2.0), obs(8.0)])
+    two.add([obs(2.0), obs(8.0)])
+    left = [Event("removed", 5, "chair", np.array([2.05, 5.0, 0.4]), 2, 80.0, detail={"misses": 3, "merged": False}),
+            Event("moved", 5, "chair", np.array([5.1, 5.0, 0.4]), 2, 99.0)]
+    stayed = [Event("removed", 8, "chair", np.array([8.0, 5.0, 0.4]), 2, 82.0, detail={"misses": 3, "merged": False}),
+              Event("moved", 8, "chair", np.array([8.2, 5.0, 0.4]), 2, 99.0)]
+    store = SiteStore(tmp_path / "site.db")
+    everything = pack_mask(np.ones(grid.data.shape, dtype=np.uint8))
+    for n, s, events in ((1, one, []), (2, two, [*left, *stayed])):
+        store.begin_session(n, {"stamp": 0.0})
+        store.record(events, [])
+        saved = {coverage_key(n): everything, sightings_key(n): s.packed()}
+        store.end_session(n, "succeeded", {"stamp": 1.0}, (), saved)
+    with store:
+        seen = load_seen_before(store, 3, grid, 0.3, 0.35)
+        events = [added(1, 2.0, session=3), added(3, 8.0, session=3)]
+        assert seen.mark(events) == 1
+        assert events[0].detail is None  # back where pass 2 saw it leave: added
+        assert events[1].detail == {FIRST_SEEN: True, SIGHTED_IN: 2}  # "moved" 0.2 m: it stood there
+
+
 def test_a_pass_that_saved_no_sightings_marks_nothing_by_them(tmp_path):
     grid = grid_10m()
     with store_with(tmp_path / "site.db", {1: None}, grid) as store:  # a site from before sightings
