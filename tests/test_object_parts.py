@@ -248,3 +248,21 @@ def test_a_tables_ends_join_where_one_ends_mask_bled_across_over_the_chairs():
     assert len(graph.nodes) == before - 1
     middle = min(graph.nodes.values(), key=lambda v: float(np.hypot(*v.position[:2])))
     assert np.allclose(middle.footprint[[0, 2]], [-0.8, 0.8])
+
+
+def test_two_doors_at_a_corner_stay_two():
+    """The same office (seed 7914) with the bleed rule above first written without a bound on
+    the wider box: two doors at a corner, one along the pair's box (1.4 m with its bleed along
+    the wall, 0.25 m across) and one across it (1.0 m), were joined in pass 2; the first door
+    was found again, added and joined, pass after pass. Doors are 0.3 m across there: a door
+    1.0 m across is a door turned, not one whose mask bled."""
+    graph = ObjectGraph(AssociationParams())
+    frames = [[view("door", 20.0, 20.9, y0=-0.05, y1=0.05)]] * 3  # a door seen whole: 0.9 m
+    for k, y in enumerate((10.0, 14.0, 18.0, 22.0)):  # doors seen with their masks bled along the wall
+        frames += [[view("door", 30.0, 30.0 + 1.3 + 0.2 * k, truncated=True, y0=y, y1=y + 0.3)]] * 3
+    t = _see(graph, frames)
+    t = _see(graph, [[view("door", 12.24, 13.67, truncated=True, y0=3.85, y1=4.1)]] * 3, t)  # along
+    _see(graph, [[view("door", 11.8, 12.05, y0=2.92, y1=3.94)]] * 3, t)  # across, seen whole
+    before = len(graph.nodes)
+    graph.pair_relocations(1, 99.0)
+    assert len(graph.nodes) == before, [np.round(v.position, 2).tolist() for v in graph.nodes.values()]
