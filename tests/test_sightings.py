@@ -102,6 +102,20 @@ def test_only_the_previous_pass_counts_and_a_place_it_saw_empty_is_an_addition(t
         assert seen_2.sighted_in == 1 and seen_2.saw(np.array([2.3, 5.0]), seen_2.sighted["chair"])[0]
 
 
+def two_passes_seen_everywhere(tmp_path: Path, grid: OccupancyGrid, one: Sightings, two: Sightings,
+                               events: list[Event]) -> SiteStore:
+    """A store of passes 1 and 2 that both saw the whole grid, with their sightings and pass
+    2's ``events``."""
+    store = SiteStore(tmp_path / "site.db")
+    everything = pack_mask(np.ones(grid.data.shape, dtype=np.uint8))
+    for n, s, recorded in ((1, one, []), (2, two, events)):
+        store.begin_session(n, {"stamp": 0.0})
+        store.record(recorded, [])
+        saved = {coverage_key(n): everything, sightings_key(n): s.packed()}
+        store.end_session(n, "succeeded", {"stamp": 1.0}, (), saved)
+    return store
+
+
 def test_an_object_back_where_the_previous_pass_saw_it_and_then_saw_it_gone_is_added(tmp_path):
     """Seed 7503 (36 x 28 m office), passes 2-3: a bin the robot saw at 54 s of pass 2 was
     taken away during the pass; its node's misses removed it ("removed" reported). Brought
@@ -119,14 +133,7 @@ def test_an_object_back_where_the_previous_pass_saw_it_and_then_saw_it_gone_is_a
                    detail={"misses": 0, "merged": True, "merged_into": 7})
     back = [Event("removed", 8, "chair", np.array([8.0, 5.0, 0.4]), 2, 82.0, detail={"misses": 3, "merged": False}),
             Event("moved", 8, "chair", np.array([8.0, 5.0, 0.4]), 2, 90.0)]
-    store = SiteStore(tmp_path / "site.db")
-    everything = pack_mask(np.ones(grid.data.shape, dtype=np.uint8))
-    for n, s, events in ((1, one, []), (2, two, [gone, folded, *back])):
-        store.begin_session(n, {"stamp": 0.0})
-        store.record(events, [])
-        saved = {coverage_key(n): everything, sightings_key(n): s.packed()}
-        store.end_session(n, "succeeded", {"stamp": 1.0}, (), saved)
-    with store:
+    with two_passes_seen_everywhere(tmp_path, grid, one, two, [gone, folded, *back]) as store:
         seen = load_seen_before(store, 3, grid, 0.3, 0.35)
         events = [added(1, 2.0, session=3), added(2, 6.0, session=3), added(3, 8.0, session=3)]
         assert seen.mark(events) == 2
@@ -150,14 +157,7 @@ def test_an_object_back_where_the_previous_pass_saw_it_go_before_pairing_it_with
             Event("moved", 5, "chair", np.array([5.1, 5.0, 0.4]), 2, 99.0)]
     stayed = [Event("removed", 8, "chair", np.array([8.0, 5.0, 0.4]), 2, 82.0, detail={"misses": 3, "merged": False}),
               Event("moved", 8, "chair", np.array([8.2, 5.0, 0.4]), 2, 99.0)]
-    store = SiteStore(tmp_path / "site.db")
-    everything = pack_mask(np.ones(grid.data.shape, dtype=np.uint8))
-    for n, s, events in ((1, one, []), (2, two, [*left, *stayed])):
-        store.begin_session(n, {"stamp": 0.0})
-        store.record(events, [])
-        saved = {coverage_key(n): everything, sightings_key(n): s.packed()}
-        store.end_session(n, "succeeded", {"stamp": 1.0}, (), saved)
-    with store:
+    with two_passes_seen_everywhere(tmp_path, grid, one, two, [*left, *stayed]) as store:
         seen = load_seen_before(store, 3, grid, 0.3, 0.35)
         events = [added(1, 2.0, session=3), added(3, 8.0, session=3)]
         assert seen.mark(events) == 1
