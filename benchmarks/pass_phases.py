@@ -1,7 +1,7 @@
 """Where a monitor pass's robot time and path went, phase by phase, read from its timeline.
 
 A pass drives its coverage tour (Visit Waypoints), then the gap viewpoints (Cover Gaps)
-and the refresh stops (Refresh Stale), and turns on the spot at some stops (Look Around).
+and the refresh stops and last looks (Refresh Stale), and turns on the spot at some stops (Look Around).
 The session's ``timeline.jsonl`` (what ``bomc view --replay`` plays) records every tree
 node's status and the robot's pose at each tick; this script attributes each pose step to
 the phase running at that tick and prints one row per phase and per session given:
@@ -22,9 +22,10 @@ from pathlib import Path
 
 # the gap and refresh phases reuse the visit loop's subtree (Look Around included), so
 # they are asked first; Look Around is then the turning at the coverage tour's stops
-PHASES = ("Visit Gap Viewpoints", "Visit Refresh Stops", "Look Around", "Visit Waypoints")
+PHASES = ("Visit Gap Viewpoints", "Visit Refresh Stops", "Visit Last Looks", "Look Around", "Visit Waypoints")
 LABELS = {"Visit Waypoints": "coverage tour", "Visit Gap Viewpoints": "gap viewpoints",
-          "Visit Refresh Stops": "refresh stops", "Look Around": "look around at tour stops"}
+          "Visit Refresh Stops": "refresh stops", "Visit Last Looks": "last looks",
+          "Look Around": "look around at tour stops"}
 
 
 def phases(timeline: Path) -> dict[str, list[float]]:
@@ -59,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     for path in paths:
         rows = phases(path)
         total = sum(s for _, s in rows.values()) or 1.0
-        for phase in ("Visit Waypoints", "Look Around", "Visit Gap Viewpoints", "Visit Refresh Stops", "other"):
+        for phase in ("Visit Waypoints", "Look Around", *PHASES[:3], "other"):
             if phase in rows:
                 m, s = rows[phase]
                 print(f"{str(path)[-40:]:40} {LABELS.get(phase, phase):26} {m:8.0f} {s:8.0f} {s / total:13.1%}")

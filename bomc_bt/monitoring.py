@@ -31,8 +31,8 @@ from bomc_bt.sightings import Sightings
 from bomc_bt.traversal import TraversalPlan
 
 PENDING, VISITED, DETOURED, MISSED = "pending", "visited", "detoured", "missed"
-GAPS, REFRESH = "gaps", "refresh"  # phases a pass adds to its plan after the waypoints
-PHASE_ORDER = (GAPS, REFRESH)  # the order the pass adds them in (trees/traverse.yaml)
+GAPS, REFRESH, LAST_LOOKS = "gaps", "refresh", "last_looks"  # phases a pass adds to its plan after the waypoints
+PHASE_ORDER = (GAPS, REFRESH, LAST_LOOKS)  # the order the pass adds them in (trees/traverse.yaml)
 
 
 @dataclass
@@ -48,7 +48,9 @@ class TraversalState:
     index: int = 0  # next position in the plan's order
     retried: list[int] = field(default_factory=list)  # missed waypoints already tried again
     current: int | None = None
-    phases: dict[str, int] = field(default_factory=dict)  # "gaps" / "refresh" -> first index
+    phases: dict[str, int] = field(default_factory=dict)  # "gaps" / "refresh" / "last_looks" -> first index
+    # what the refresh stops were planned to decide: {"nodes": [ids], "places": [[x, y], ...]}
+    looked_for: dict[str, list] = field(default_factory=dict)
 
     def add_viewpoints(self, phase: str, viewpoints: list[Pose2D]) -> None:
         """Append the viewpoints of ``phase``, planned once per pass after what came before."""
@@ -116,10 +118,12 @@ class TraversalState:
         missed = [{"index": i, "x": round(self.waypoint(i).x, 2), "y": round(self.waypoint(i).y, 2)}
                   for i, s in enumerate(self.states) if s == MISSED]
         return {"waypoints": len(self.states), **counts, "missed_waypoints": missed,
-                "gap_viewpoints": self.phase_count(GAPS), "refresh_stops": self.phase_count(REFRESH)}
+                "gap_viewpoints": self.phase_count(GAPS), "refresh_stops": self.phase_count(REFRESH),
+                "last_looks": self.phase_count(LAST_LOOKS)}
 
     def to_json(self) -> dict[str, Any]:
-        return {"states": self.states, "index": self.index, "retried": self.retried, "phases": self.phases}
+        return {"states": self.states, "index": self.index, "retried": self.retried, "phases": self.phases,
+                "looked_for": self.looked_for}
 
     def restore(self, data: dict[str, Any]) -> None:
         if len(data.get("states", [])) == len(self.states):
@@ -129,6 +133,8 @@ class TraversalState:
             phases = data.get("phases") or ({GAPS: data["gaps_from"]} if "gaps_from" in data else {})
             self.phases = {str(k): int(v) for k, v in phases.items()
                            if isinstance(v, int) and 0 <= v <= len(self.states)}
+            looked_for = data.get("looked_for")
+            self.looked_for = dict(looked_for) if isinstance(looked_for, dict) else {}
 
 
 def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: float, count: int,

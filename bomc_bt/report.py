@@ -121,7 +121,7 @@ def report_markdown(s: dict[str, Any]) -> str:
         lines.append(f"- waypoints: {t['waypoints']} (visited {t['visited']}, detoured {t['detoured']}, "
                      f"missed {t['missed']}, not reached {t['pending']}; "
                      f"{t.get('gap_viewpoints', 0)} of them gap viewpoints, "
-                     f"{t.get('refresh_stops', 0)} refresh stops)")
+                     f"{t.get('refresh_stops', 0)} refresh stops, {t.get('last_looks', 0)} last looks)")
         for m in t["missed_waypoints"]:
             lines.append(f"  - missed waypoint {m['index'] + 1} at ({m['x']}, {m['y']})")
     regions = s["coverage"]["unobserved_regions"]

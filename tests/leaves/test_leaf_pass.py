@@ -12,13 +12,13 @@ from fake_robot import key, tick
 from py_trees.common import Status
 
 from behaviours.look_around import LookAround
-from behaviours.plan_pass import PlanGapViewpoints, PlanRefreshStops, PlanTraversal
+from behaviours.plan_pass import PlanGapViewpoints, PlanLastLooks, PlanRefreshStops, PlanTraversal
 from behaviours.waypoints import FindDetour, MarkWaypoint, MarkWaypointParams, NextWaypoint, WaypointsDone
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
 from bomc_bt.look_around import LookAroundParams
 from bomc_bt.monitor_pass import DetourParams, progress_key, save_pass
-from bomc_bt.monitoring import DETOURED, GAPS, MISSED, REFRESH, VISITED, Coverage, TraversalState
+from bomc_bt.monitoring import DETOURED, GAPS, LAST_LOOKS, MISSED, REFRESH, VISITED, Coverage, TraversalState
 from bomc_bt.refresh import RefreshParams
 from bomc_bt.robot import Status as Nav
 from bomc_bt.site import TrajectoryRecorder
@@ -266,6 +266,48 @@ def test_plan_refresh_stops_look_again_at_an_object_the_pass_added_on_its_two_co
     assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 left unresolved"
     stop = state.waypoint(len(state.states) - 1)
     assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
+
+
+def test_last_looks_decide_a_node_added_while_the_refresh_stops_were_driven_once(ctx, robot):
+    """93 x 90 m office, seed 7921, pass 3: two false detections of a potted plant at one
+    place, 8.5 s apart, added a node at a refresh stop; the robot turned away and drove on,
+    no frame matched it again, and the map kept it (a phantom addition). The refresh tour,
+    planned before, could not look at it. Plan Last Looks plans a stop facing it, and none
+    for the bin the refresh tour was already planned to decide; planned once, saved with the
+    pass, and an empty phase when nothing came up."""
+    state = start_pass(ctx, (2.5, 7.0), (6.0, 5.0))
+    for _ in range(2):
+        state.mark(state.next(), VISITED)
+    ctx.session = 2
+    ctx.graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2, tentative_ttl=10.0))
+    for dt in (0.0, 4.5):  # a bin added on its two confirming frames: the refresh tour's to decide
+        robot.advance(dt)
+        ctx.graph.associate([Observation("trash bin", np.array([6.0, 7.0, 0.3]), 0.9)], [], 2, ctx.now())
+    robot.advance(30.0)
+    params = RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=())
+    assert tick(PlanRefreshStops("Refresh", params, ctx)) == Status.SUCCESS and state.phase_count(REFRESH) == 1
+    assert state.looked_for == {"nodes": [0], "places": []}
+    assert tick(PlanLastLooks("Last", params, ctx)) == Status.SUCCESS
+    assert state.planned(LAST_LOOKS) and state.phase_count(LAST_LOOKS) == 0  # nothing came up
+
+    state = start_pass(ctx, (2.5, 7.0), (6.0, 5.0))
+    for _ in range(2):
+        state.mark(state.next(), VISITED)
+    assert tick(PlanRefreshStops("Refresh", params, ctx)) == Status.SUCCESS
+    for dt in (0.0, 8.5):  # during the refresh stops: the plant, at the west wall
+        robot.advance(dt)
+        ctx.graph.associate([Observation("potted plant", np.array([1.0, 5.0, 0.4]), 0.9)], [], 2, ctx.now())
+    assert sorted(n.category for n in ctx.graph.unresolved(2)) == ["potted plant", "trash bin"]
+    save_pass(ctx.store, ctx.session, state)  # a kill here: the resumed pass knows what the tour was for
+    resumed = TraversalState(state.plan)
+    resumed.restore(ctx.store.get_progress(progress_key(ctx.session)))
+    ctx.traverse = resumed
+    leaf = PlanLastLooks("Last", params, ctx)
+    assert tick(leaf) == Status.SUCCESS and resumed.phase_count(LAST_LOOKS) == 1
+    assert leaf.feedback_message == "1 last looks for 1 nodes and sightings new since the refresh plan"
+    stop = resumed.waypoint(len(resumed.states) - 1)
+    assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
+    assert tick(leaf) == Status.SUCCESS and resumed.phase_count(LAST_LOOKS) == 1  # once per pass
 
 
 def test_plan_refresh_stops_with_nothing_stale_adds_an_empty_phase(ctx, robot):
