@@ -34,7 +34,8 @@ class LookAround(ActionLeaf):
         self.pose = ctx.robot.pose()
         self.turns = plan_head_turns(ctx.graph, self.pose, ctx.session, ctx.robot.live_map(), self.params,
                                      ctx.config.camera.hfov_deg, ctx.now())
-        ctx.graph.mark_sightings_looked(self.turns.faced)  # one look a place (a false positive's too)
+        place = None if self.pose is None else (self.pose.x, self.pose.y)
+        ctx.graph.mark_sightings_looked(self.turns.faced, place)  # one look a place (a false positive's too)
         self.time_left = None if ctx.budget is None or ctx.traverse is None else look_time_left(
             ctx.budget, ctx.now() - ctx.budget.started, ctx.traverse.current)
         return None  # the first turn starts on the first tick, like every later one

@@ -219,7 +219,8 @@ class PlanRefreshStops(PlanPhase):
             taken = waiting | {n.id for n in unresolved}
             unresolved += [n for n in displaced_nodes(ctx.graph.nodes.values(), added_at, ctx.session,
                                                       ctx.graph.params.relocation_radius) if n.id not in taken]
-        sighted = sighting_looks(ctx.graph.unconfirmed_sightings()) if self.params.unconfirmed else []
+        near = self.params.look_range if self.params.look_range > self.params.min_range else self.params.view_range
+        sighted = sighting_looks(ctx.graph.unconfirmed_sightings(near)) if self.params.unconfirmed else []
         return second_looks, unresolved, sighted
 
     def plan_stops(self, stale: list, looks: list) -> list:

@@ -160,3 +160,17 @@ def test_a_place_seen_once_gets_one_look_a_false_positive_does_not_turn_every_wa
     assert plan_head_turns(g, Pose2D(5.0, 5.0, 0.0), 2, open_room(), params, 60.0, 31.0).headings == []
     assert plan_head_turns(g, Pose2D(4.0, 6.0, 0.0), 2, open_room(), params, 60.0, 31.0).headings == []
     assert g.unconfirmed_sightings() == []
+
+
+def test_how_far_a_turn_faced_a_sighting_survives_a_resume_and_an_older_save_counts_as_near():
+    g = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
+    g.associate([Observation("trash bin", np.array([2.0, 5.0, 0.3]), 0.9)], [], 2, 11.0)
+    g.mark_sightings_looked(g.unconfirmed_sightings(), (5.0, 5.0))  # from 3 m
+    saved = g.policy.tentative.to_json()
+    assert saved["looked"][0][2] == 3.0
+    resumed = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
+    resumed.policy.tentative.restore(saved)
+    assert resumed.unconfirmed_sightings() == [] and len(resumed.unconfirmed_sightings(2.5)) == 1
+    saved["looked"] = [entry[:2] for entry in saved["looked"]]  # a pass saved before distances were kept
+    resumed.policy.tentative.restore(saved)
+    assert resumed.unconfirmed_sightings(2.5) == []

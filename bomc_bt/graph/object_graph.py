@@ -117,22 +117,24 @@ class ObjectGraph:
             v.last_session != session or self.missed_up_close(v.id)
             or (v.first_session == session and v.observations <= barely))]
 
-    def unconfirmed_sightings(self) -> list[Sighting]:
+    def unconfirmed_sightings(self, looked_within: float | None = None) -> list[Sighting]:
         """First sightings of the current session never confirmed (robust mode,
         :class:`~bomc_bt.graph.tentative.TentativeSightings`) with no present node of their
         category within its association distance: an object the camera caught once, or a
-        false positive. A look at the place decides (:mod:`bomc_bt.refresh`)."""
+        false positive. A look at the place decides (:mod:`bomc_bt.refresh`). A head turn
+        has faced some already; with ``looked_within`` (m) only a turn from that near counts."""
         tentative = getattr(self.policy, "tentative", None)
         if tentative is None:
             return []
-        return [t for t in tentative.unconfirmed()
+        return [t for t in tentative.unconfirmed(looked_within)
                 if not self.within(t.category, t.position, self.params.distance(t.category))]
 
-    def mark_sightings_looked(self, sightings: Sequence[Sighting]) -> None:
-        """A head turn faces ``sightings`` now: they ask for no other look this pass."""
+    def mark_sightings_looked(self, sightings: Sequence[Sighting], place: Sequence[float] | None = None) -> None:
+        """A head turn faces ``sightings`` now, from ``place`` (x, y; None: from up close): no
+        other turn asks for them this pass."""
         tentative = getattr(self.policy, "tentative", None)
         if tentative is not None:
-            tentative.mark_looked(sightings)
+            tentative.mark_looked(sightings, place)
 
     def missed_up_close(self, node_id: int) -> bool:
         """Its run of misses since the last detection weighs one full miss or more: at least

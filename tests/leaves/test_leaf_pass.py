@@ -349,6 +349,33 @@ def test_look_around_turns_to_an_object_seen_once_on_the_way_and_marks_the_place
     assert ctx.graph.unconfirmed_sightings() == []  # one look: no other waypoint turns to it
 
 
+def test_a_turn_from_afar_leaves_an_object_seen_once_to_the_refresh_tour_one_from_near_does_not(ctx, robot):
+    """36 x 28 m office, seed 7913, pass 1: a cabinet caught twice through a doorway, 10 s
+    apart at its two ends, was never confirmed; Look Around turned to it from 4.6 m outside,
+    where its frames missed it, and that turn counted as the place's one look, so the refresh
+    tour planned none and the cabinet was never mapped. Here the turn from 3 m (beyond
+    projection.miss_full_range, 2.5 m) still stops other waypoints turning to the bin, but the
+    refresh tour plans a stop facing it; after a turn from 1.5 m it plans none."""
+    for start, stops in (((5.0, 5.0), 1), ((5.0, 6.5), 0)):
+        state = start_pass(ctx, (5.0, 6.5), (5.0, 5.0))
+        for _ in range(2):
+            state.mark(state.next(), VISITED)
+        robot.place(Pose2D(*start, 0.0))
+        ctx.session = 2
+        ctx.graph = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2, tentative_ttl=10.0))
+        ctx.graph.associate([Observation("trash bin", np.array([5.0, 8.0, 0.3]), 0.9)], [], 2, ctx.now())
+        assert tick(LookAround("Look", LookAroundParams(dwell=1.5), ctx)) == Status.RUNNING
+        assert ctx.graph.unconfirmed_sightings() == []  # no other waypoint turns to it
+        robot.advance(30.0)
+        ctx.graph.associate([], [], 2, ctx.now())  # its ttl ran out unconfirmed
+        leaf = PlanRefreshStops("Refresh", RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=()), ctx)
+        assert tick(leaf) == Status.SUCCESS and state.phase_count(REFRESH) == stops
+        if stops:
+            assert leaf.feedback_message == "1 refresh stops for 0 stale nodes and 1 unconfirmed sightings"
+            stop = state.waypoint(len(state.states) - 1)
+            assert (stop.x, stop.y) == (5.0, 6.5) and abs(stop.yaw - math.pi / 2) < math.radians(25.0)
+
+
 def test_look_around_skips_a_turn_that_failed(ctx, robot):
     leaf = look_around(ctx)
     tick(leaf)
