@@ -163,14 +163,21 @@ def test_a_place_seen_once_gets_one_look_a_false_positive_does_not_turn_every_wa
 
 
 def test_how_far_a_turn_faced_a_sighting_survives_a_resume_and_an_older_save_counts_as_near():
+    """Two sightings of a cabinet's two ends, turned to from 3 m: they ask no other turn, but
+    a look from within 2.5 m is still to come; a pass saved before distances were kept counts
+    its turns as near. A lone sighting turned to from 3 m is settled."""
     g = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
-    g.associate([Observation("trash bin", np.array([2.0, 5.0, 0.3]), 0.9)], [], 2, 11.0)
-    g.mark_sightings_looked(g.unconfirmed_sightings(), (5.0, 5.0))  # from 3 m
+    g.associate([Observation("cabinet", np.array([x, 5.0, 0.6]), 0.9) for x in (1.6, 2.4)], [], 2, 11.0)
+    g.mark_sightings_looked(g.unconfirmed_sightings(), (5.0, 5.0))
     saved = g.policy.tentative.to_json()
-    assert saved["looked"][0][2] == 3.0
+    assert [round(e[2], 2) for e in saved["looked"]] == [3.4, 2.6]
     resumed = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
     resumed.policy.tentative.restore(saved)
-    assert resumed.unconfirmed_sightings() == [] and len(resumed.unconfirmed_sightings(2.5)) == 1
+    assert resumed.unconfirmed_sightings() == [] and len(resumed.unconfirmed_sightings(2.5)) == 2
     saved["looked"] = [entry[:2] for entry in saved["looked"]]  # a pass saved before distances were kept
     resumed.policy.tentative.restore(saved)
     assert resumed.unconfirmed_sightings(2.5) == []
+    lone = ObjectGraph(AssociationParams(mode="robust", confirm_detections=2))
+    lone.associate([Observation("trash bin", np.array([2.0, 5.0, 0.3]), 0.9)], [], 2, 11.0)
+    lone.mark_sightings_looked(lone.unconfirmed_sightings(), (5.0, 5.0))
+    assert lone.unconfirmed_sightings(2.5) == []
