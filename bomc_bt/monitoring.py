@@ -49,7 +49,7 @@ class TraversalState:
     retried: list[int] = field(default_factory=list)  # missed waypoints already tried again
     current: int | None = None
     phases: dict[str, int] = field(default_factory=dict)  # "gaps" / "refresh" / "last_looks" -> first index
-    # what the refresh stops were planned to decide: {"nodes": [ids], "places": [[x, y], ...]}
+    # what the refresh stops were planned to decide: {"nodes": [ids]}
     looked_for: dict[str, list] = field(default_factory=dict)
 
     def add_viewpoints(self, phase: str, viewpoints: list[Pose2D]) -> None:

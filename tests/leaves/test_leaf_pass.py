@@ -273,8 +273,9 @@ def test_last_looks_decide_a_node_added_while_the_refresh_stops_were_driven_once
     place, 8.5 s apart, added a node at a refresh stop; the robot turned away and drove on,
     no frame matched it again, and the map kept it (a phantom addition). The refresh tour,
     planned before, could not look at it. Plan Last Looks plans a stop facing it, and none
-    for the bin the refresh tour was already planned to decide; planned once, saved with the
-    pass, and an empty phase when nothing came up."""
+    for the bin the refresh tour was already planned to decide nor for a chair caught once on
+    the way (Look Around's); planned once, saved with the pass, and an empty phase when
+    nothing came up."""
     state = start_pass(ctx, (2.5, 7.0), (6.0, 5.0))
     for _ in range(2):
         state.mark(state.next(), VISITED)
@@ -286,7 +287,7 @@ def test_last_looks_decide_a_node_added_while_the_refresh_stops_were_driven_once
     robot.advance(30.0)
     params = RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=())
     assert tick(PlanRefreshStops("Refresh", params, ctx)) == Status.SUCCESS and state.phase_count(REFRESH) == 1
-    assert state.looked_for == {"nodes": [0], "places": []}
+    assert state.looked_for == {"nodes": [0]}
     assert tick(PlanLastLooks("Last", params, ctx)) == Status.SUCCESS
     assert state.planned(LAST_LOOKS) and state.phase_count(LAST_LOOKS) == 0  # nothing came up
 
@@ -297,6 +298,7 @@ def test_last_looks_decide_a_node_added_while_the_refresh_stops_were_driven_once
     for dt in (0.0, 8.5):  # during the refresh stops: the plant, at the west wall
         robot.advance(dt)
         ctx.graph.associate([Observation("potted plant", np.array([1.0, 5.0, 0.4]), 0.9)], [], 2, ctx.now())
+    ctx.graph.associate([Observation("chair", np.array([3.0, 8.0, 0.45]), 0.9)], [], 2, ctx.now())  # seen once
     assert sorted(n.category for n in ctx.graph.unresolved(2)) == ["potted plant", "trash bin"]
     save_pass(ctx.store, ctx.session, state)  # a kill here: the resumed pass knows what the tour was for
     resumed = TraversalState(state.plan)
@@ -304,7 +306,7 @@ def test_last_looks_decide_a_node_added_while_the_refresh_stops_were_driven_once
     ctx.traverse = resumed
     leaf = PlanLastLooks("Last", params, ctx)
     assert tick(leaf) == Status.SUCCESS and resumed.phase_count(LAST_LOOKS) == 1
-    assert leaf.feedback_message == "1 last looks for 1 nodes and sightings new since the refresh plan"
+    assert leaf.feedback_message == "1 last looks for 1 nodes new since the refresh plan"
     stop = resumed.waypoint(len(resumed.states) - 1)
     assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
     assert tick(leaf) == Status.SUCCESS and resumed.phase_count(LAST_LOOKS) == 1  # once per pass
