@@ -228,7 +228,7 @@ class PlanRefreshStops(PlanPhase):
         grid = ctx.robot.live_map()
         distances = DrivenLengths(grid, ctx.config.sim.planner)
         budget = self.params.budget * (ctx.plan.grid_length or ctx.plan.euclidean_length)
-        boxes, ids = object_boxes_by_id(ctx.graph) if looks or stale else (None, None)
+        boxes, ids = object_boxes_by_id(ctx.graph) if looks else (None, None)
         stops = refresh_viewpoints(grid, stale, ctx.now(), ctx.traverse.reached(), ctx.robot.pose(), budget,
                                    distances, self.params, looks, ctx.graph.params.miss_spacing, boxes, ids)
         self.extend(stops)

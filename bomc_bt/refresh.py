@@ -193,12 +193,10 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
     (:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`); one given None was left
     unresolved by the pass (:meth:`~bomc_bt.graph.ObjectGraph.unresolved`), or is a
     :class:`SightingLook`, and may be looked at from anywhere. Their stops are chosen first,
-    the most of them per metre, then the stale nodes' by age, and no stop looks at a node past
-    one of ``occluders`` (M, 4: the objects' boxes x0, y0, x1, y1; with ``occluder_ids`` (M,), a
-    node's own box is not in its way; a miss counts only where the view is clear). A stale
-    table seen from a stop past the chair in front of it was counted looked at, and its frames
-    counted no miss: taken away during the pass, it stayed on the map for a pass (36 x 28 m
-    office, seed 7912, pass 11). The stops come in driving order.
+    the most of them per metre, then the stale nodes' by age, and none looks at them past one
+    of ``occluders`` (M, 4: the objects' boxes x0, y0, x1, y1; with ``occluder_ids`` (M,), a
+    node's own box is not in its way; a miss counts only where the view is clear). The stops
+    come in driving order.
     """
     params = params or RefreshParams()
     reached = np.asarray(candidates, dtype=float).reshape(-1, 2)
@@ -222,9 +220,13 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
             sight[:, :len(second_looks)] &= np.hypot(candidates[:, None, 0] - looked[None, :, 0],
                                                      candidates[:, None, 1] - looked[None, :, 1]) \
                 <= params.look_range + 1e-6
+        if occluders is not None and len(occluders):
+            k, n = np.nonzero(sight[:, :len(second_looks)])  # only the pairs in sight: memory stays small
+            own = None if occluder_ids is None else \
+                np.asarray(occluder_ids)[None, :] == np.array([nodes[i].id for i in n])[:, None]
+            hidden = _behind(candidates[k], targets[n], occluders, own=own)
+            sight[k[hidden], n[hidden]] = False
         sight[len(reached):, len(second_looks):] = False  # places round a node are for its second look only
-    if occluders is not None and len(occluders):
-        _hide_behind_objects(sight, candidates, targets, [n.id for n in nodes], occluders, occluder_ids)
     covered = np.zeros(len(nodes), dtype=bool)
     hfov = math.radians(params.hfov_deg)
     route = _Route(distances, candidates, (start.x, start.y))
@@ -304,19 +306,6 @@ def second_look_places(grid: OccupancyGrid, nodes: Sequence[Node | SightingLook]
     ok = np.zeros(len(places), dtype=bool)
     ok[inside] = room[rows[inside], cols[inside]] >= params.second_look_clearance
     return places[ok]
-
-
-def _hide_behind_objects(sight: np.ndarray, candidates: np.ndarray, targets: np.ndarray, ids: Sequence[int],
-                         boxes: np.ndarray, box_ids: np.ndarray | None, chunk: int = 4096) -> None:
-    """Clear ``sight[k, n]`` where the line from candidate k to target n (node ``ids[n]``)
-    crosses another object's box; only the pairs in sight, ``chunk`` at a time (memory)."""
-    k_all, n_all = np.nonzero(sight)
-    ids = np.asarray(ids)
-    for lo in range(0, len(k_all), chunk):
-        k, n = k_all[lo:lo + chunk], n_all[lo:lo + chunk]
-        own = None if box_ids is None else np.asarray(box_ids)[None, :] == ids[n][:, None]
-        hidden = _behind(candidates[k], targets[n], boxes, own=own)
-        sight[k[hidden], n[hidden]] = False
 
 
 def _behind(starts: np.ndarray, ends: np.ndarray, boxes: np.ndarray, short: float = 0.3,

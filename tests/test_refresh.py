@@ -178,25 +178,6 @@ def test_a_node_the_pass_left_unresolved_is_looked_at_first_from_where_no_object
     assert [(s.x, s.y) for s in clear] == [(20.0, 1.0)]
 
 
-def test_a_stale_node_is_looked_at_from_where_no_object_stands_in_the_way():
-    """36 x 28 m office, seed 7912, pass 11: a table taken away during the pass, after the
-    camera had seen it, got a refresh stop whose view passed the chair in front of it; those
-    frames counted no miss (the table's body hidden) and it stayed on the map for a pass. The
-    stop is now one with a clear line to it, a little farther; the chair's box moved out of
-    the way, the nearest place does again."""
-    table = node(0, 20.0, 3.5, 50.0)
-    table.category = "table"
-    boxes = np.array([[19.7, 2.9, 20.3, 3.9], [19.75, 2.3, 20.25, 2.8]])  # the table's, the chair's
-    ids = np.array([0, 7])
-    places = np.array([[20.0, 1.0], [24.0, 1.0]])  # (20, 1) looks past the chair
-    plan = dict(now=NOW, start=Pose2D(19.0, 1.0, 0.0), distances=euclidean, candidates=places, budget=12.0)
-    stops = refresh_viewpoints(corridor(), [table], **plan, occluders=boxes, occluder_ids=ids)
-    assert [(s.x, s.y) for s in stops] == [(24.0, 1.0)] and faces(stops[0], table)
-    moved = np.array([[19.7, 2.9, 20.3, 3.9], [21.75, 2.3, 22.25, 2.8]])
-    stops = refresh_viewpoints(corridor(), [table], **plan, occluders=moved, occluder_ids=ids)
-    assert [(s.x, s.y) for s in stops] == [(20.0, 1.0)]
-
-
 def test_a_look_that_must_decide_stands_where_a_miss_weighs_in_full():
     """A trash bin the pass added on its two confirming frames (two false detections) is looked
     at from 4.5 m, the reached place on the robot's way: frames there count a fifth of a miss
