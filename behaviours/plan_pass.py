@@ -173,8 +173,8 @@ class PlanRefreshStops(PlanPhase):
     """Before the pass ends: adds stops that look again at the nodes confirmed longest ago.
 
     An object taken away after the camera passed it is only noticed if the camera looks
-    again (see :mod:`bomc_bt.refresh`). The nodes and places the stops were planned to
-    decide are kept with the pass (``TraversalState.looked_for``) for Plan Last Looks.
+    again (see :mod:`bomc_bt.refresh`). The nodes the stops were planned to decide are
+    kept with the pass (``TraversalState.looked_for``) for Plan Last Looks.
     """
 
     Params = RefreshParams
