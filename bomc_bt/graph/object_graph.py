@@ -118,11 +118,9 @@ class ObjectGraph:
             or (v.first_session == session and v.observations <= barely))]
 
     def unconfirmed_sightings(self, looked_within: float | None = None) -> list[Sighting]:
-        """First sightings of the current session never confirmed (robust mode,
-        :class:`~bomc_bt.graph.tentative.TentativeSightings`) with no present node of their
-        category within its association distance: an object the camera caught once, or a
-        false positive. A look at the place decides (:mod:`bomc_bt.refresh`). A head turn
-        has faced some already; with ``looked_within`` (m) only a turn from that near counts."""
+        """First sightings of the current session never confirmed (robust mode) with no present
+        node of their kind within delta_c: an object caught once, or a false positive. A look
+        decides (:mod:`bomc_bt.refresh`); ``looked_within``: see ``TentativeSightings.unconfirmed``."""
         tentative = getattr(self.policy, "tentative", None)
         if tentative is None:
             return []
@@ -130,8 +128,7 @@ class ObjectGraph:
                 if not self.within(t.category, t.position, self.params.distance(t.category))]
 
     def mark_sightings_looked(self, sightings: Sequence[Sighting], place: Sequence[float] | None = None) -> None:
-        """A head turn faces ``sightings`` now, from ``place`` (x, y; None: from up close): no
-        other turn asks for them this pass."""
+        """A head turn faces ``sightings`` now, from ``place`` (x, y; None: up close)."""
         tentative = getattr(self.policy, "tentative", None)
         if tentative is not None:
             tentative.mark_looked(sightings, place)
