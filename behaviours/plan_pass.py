@@ -270,11 +270,14 @@ class PlanLastLooks(PlanRefreshStops):
 
     def new_doubts(self) -> list:
         """Nodes this pass added and matched in at most ``retract_observations`` frames, and
-        nodes of earlier passes that may have moved to one it added."""
+        nodes of earlier passes that may have moved to one it added (none with ``unresolved: false``)."""
         ctx, graph = self.context, self.context.graph
+        if not self.params.unresolved:
+            return []
         barely = graph.params.retract_observations
         added = [n for n in graph.unresolved(ctx.session) if n.first_session == ctx.session
                  and n.observations <= barely]
         events = ctx.perception.events if ctx.perception is not None else []
         moved = displaced_nodes(graph.nodes.values(), added_times(events), ctx.session, graph.params.relocation_radius)
-        return added + [n for n in moved if n not in added]
+        taken = {n.id for n in added}
+        return added + [n for n in moved if n.id not in taken]

@@ -301,8 +301,10 @@ def test_last_looks_decide_a_node_added_while_the_refresh_stops_were_driven_once
     ctx.graph.associate([Observation("chair", np.array([3.0, 8.0, 0.45]), 0.9)], [], 2, ctx.now())  # seen once
     assert sorted(n.category for n in ctx.graph.unresolved(2)) == ["potted plant", "trash bin"]
     save_pass(ctx.store, ctx.session, state)  # a kill here: the resumed pass knows what the tour was for
-    resumed = TraversalState(state.plan)
-    resumed.restore(ctx.store.get_progress(progress_key(ctx.session)))
+    saved = ctx.store.get_progress(progress_key(ctx.session))
+    resumed = TraversalState(TraversalPlan(list(state.plan.waypoints), euclidean_length=100.0))
+    resumed.restore(saved)
+    assert resumed.planned(REFRESH) and resumed.looked_for == {"nodes": [0]}
     ctx.traverse = resumed
     leaf = PlanLastLooks("Last", params, ctx)
     assert tick(leaf) == Status.SUCCESS and resumed.phase_count(LAST_LOOKS) == 1
@@ -310,6 +312,12 @@ def test_last_looks_decide_a_node_added_while_the_refresh_stops_were_driven_once
     stop = resumed.waypoint(len(resumed.states) - 1)
     assert abs(math.atan2(5.0 - stop.y, 1.0 - stop.x) - stop.yaw) < math.radians(25.0)
     assert tick(leaf) == Status.SUCCESS and resumed.phase_count(LAST_LOOKS) == 1  # once per pass
+    off = RefreshParams(stale_after=600.0, budget=0.3, second_look_radii=(), unresolved=False)
+    ctx.traverse = TraversalState(TraversalPlan(list(state.plan.waypoints), euclidean_length=100.0))
+    ctx.traverse.restore(saved)  # the pass as it was before Plan Last Looks, with it turned off
+    assert ctx.traverse.planned(REFRESH) and not ctx.traverse.planned(LAST_LOOKS)
+    assert tick(PlanLastLooks("Last", off, ctx)) == Status.SUCCESS and ctx.traverse.planned(LAST_LOOKS)
+    assert ctx.traverse.phase_count(LAST_LOOKS) == 0
 
 
 def test_plan_refresh_stops_with_nothing_stale_adds_an_empty_phase(ctx, robot):
