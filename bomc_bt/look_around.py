@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.monitoring import camera_clear, sees_node, unverified_headings
+from bomc_bt.monitoring import unverified_headings
+from bomc_bt.node_sight import camera_clear, sees_target
 
 
 @dataclass
@@ -109,6 +110,6 @@ def pending_in_front(graph, pose: Pose2D, grid: OccupancyGrid, radius: float, fo
         distance = math.hypot(dx, dy)
         if not 0.5 <= distance <= radius or abs(wrap_angle(math.atan2(dy, dx) - pose.yaw)) > fov / 2:
             continue
-        if sees_node(grid, clear, (pose.x, pose.y), (node.position[0], node.position[1])):
+        if sees_target(grid, clear, (pose.x, pose.y), node.position, node.footprint):
             return True
     return False

@@ -21,6 +21,7 @@ import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
 from bomc_bt.pass_resume import ResumeText, earlier_co_observed, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
@@ -165,33 +166,6 @@ def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: 
     return picks[:count]
 
 
-def camera_clear(grid: OccupancyGrid) -> np.ndarray:
-    """Cells the camera sees through on ``grid``: all but occupied ones. Furniture leaves its
-    lidar shadow unknown on a map (the floor round a table pushed against a wall and the
-    chair at it), and the camera, higher than the lidar, looks over what casts it; a
-    look planned only along known free cells never faces such a table, and a table
-    taken away from there is not seen gone."""
-    return ~grid.occupied_mask()
-
-
-def line_of_sight(grid: OccupancyGrid, free: np.ndarray, a: tuple[float, float], b: tuple[float, float]) -> bool:
-    n = max(2, int(math.hypot(b[0] - a[0], b[1] - a[1]) / (grid.resolution * 0.5)))
-    t = np.linspace(0.0, 1.0, n)
-    rows, cols = grid.world_to_cell(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))
-    inside = grid.in_bounds(rows, cols)
-    return bool(inside.all() and free[rows, cols].all())
-
-
-def sees_node(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], b: tuple[float, float],
-              short: float = 0.5) -> bool:
-    """:func:`line_of_sight` from ``a`` to ``short`` metres before the node at ``b``: the
-    node's own cells (occupied, or unknown in its shadow) do not hide it."""
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    d = math.hypot(dx, dy)
-    stop = (a[0] + dx * (1 - short / d), a[1] + dy * (1 - short / d)) if d > short else a
-    return line_of_sight(grid, clear, a, stop)
-
-
 def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, radius: float,
                         fov: float, max_turns: int, now: float | None = None,
                         stale_after: float = 0.0, sightings: Sequence[np.ndarray] = ()) -> list[float]:
@@ -200,8 +174,9 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
     A node not matched in this session (or with misses pending) is either still there,
     missed by the detector, or gone; the paper's robot only learns which if the camera
     happens to look. Turning towards such nodes from a waypoint lets the graph confirm
-    them or count misses until removal is confirmed. Nodes behind a wall (no line of
-    sight on the map up to half a metre short of them) are left for another waypoint.
+    them or count misses until removal is confirmed. Nodes behind a wall (no face of
+    their footprint in a line of sight on the map, :func:`~bomc_bt.node_sight.sees_target`)
+    are left for another waypoint.
     Headings are grouped into camera-wide windows, nearest turn first.
 
     With ``stale_after`` > 0 and the robot time ``now``, a node this pass confirmed more
@@ -226,7 +201,7 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
         if distance > radius or distance < 0.5 or (node.last_session == session and node.id not in pending
                                                      and not _stale(node, now, stale_after)):
             continue
-        if sees_node(grid, free, (pose.x, pose.y), (node.position[0], node.position[1])):
+        if sees_target(grid, free, (pose.x, pose.y), node.position, node.footprint):
             bearings.append(math.atan2(dy, dx))
     for place in sightings:
         dx, dy = float(place[0]) - pose.x, float(place[1]) - pose.y

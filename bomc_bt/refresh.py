@@ -65,7 +65,7 @@ import numpy as np
 from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import PRESENT, Event, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.monitoring import camera_clear, sees_node
+from bomc_bt.node_sight import camera_clear, sees_target
 from bomc_bt.viewpoints import best_heading
 
 
@@ -76,6 +76,7 @@ class SightingLook:
 
     id: int
     position: np.ndarray
+    footprint: None = None  # no box: looked at by the centre rule (node_sight.sees_target)
 
 
 def sighting_looks(sightings: Sequence) -> list[SightingLook]:
@@ -209,7 +210,7 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
         return []
     targets = np.array([n.position[:2] for n in nodes])
     age = np.array([0.0] * len(second_looks) + [now - n.last_seen for n in stale])
-    sight = _sight(grid, candidates, targets, params)
+    sight = _sight(grid, candidates, targets, [n.footprint for n in nodes], params)
     if second_looks:
         places = np.array([(np.nan, np.nan) if place is None else place for _, place in second_looks],
                           dtype=float).reshape(-1, 2)
@@ -281,14 +282,16 @@ class _Route:
         self.rows.insert(after + 1, np.asarray(self.distances(xy)(self.candidates), dtype=float))
 
 
-def _sight(grid: OccupancyGrid, candidates: np.ndarray, targets: np.ndarray, params: RefreshParams) -> np.ndarray:
+def _sight(grid: OccupancyGrid, candidates: np.ndarray, targets: np.ndarray, footprints: list,
+           params: RefreshParams) -> np.ndarray:
     """(K, N): candidate k sees target n -- in range, and a line the camera sees along
-    (:func:`~bomc_bt.monitoring.camera_clear`) to half a metre short."""
+    (:func:`~bomc_bt.node_sight.camera_clear`) to a face of its footprint (None: to half a
+    metre short of it; :func:`~bomc_bt.node_sight.sees_target`)."""
     free = camera_clear(grid)
     d = np.hypot(targets[None, :, 0] - candidates[:, None, 0], targets[None, :, 1] - candidates[:, None, 1])
     sight = (d >= params.min_range) & (d <= params.view_range)
     for k, n in zip(*np.nonzero(sight), strict=True):
-        sight[k, n] = sees_node(grid, free, (candidates[k, 0], candidates[k, 1]), (targets[n, 0], targets[n, 1]))
+        sight[k, n] = sees_target(grid, free, (candidates[k, 0], candidates[k, 1]), targets[n], footprints[n])
     return sight
 
 
