@@ -78,16 +78,20 @@ def face_points(footprint, inset: float = FACE_INSET) -> np.ndarray:
 
 
 def sees_faces(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], footprint) -> bool:
-    """Some point of :func:`face_points` has a line from ``a`` clear on ``clear``, itself included."""
+    """Some point of :func:`face_points` has a line from ``a`` clear on ``clear``, itself
+    included, but for the part of the line inside the shrunk footprint: the object's own
+    cells (its lidar outline, where a footprint is no wider than the object) do not hide it."""
     ends = face_points(footprint)
     n = max(2, int(np.hypot(ends[:, 0] - a[0], ends[:, 1] - a[1]).max() / (grid.resolution * 0.5)))
     t = np.linspace(0.0, 1.0, n)[None, :]
-    rows, cols = grid.world_to_cell(a[0] + t * (ends[:, :1] - a[0]), a[1] + t * (ends[:, 1:] - a[1]))
-    inside = grid.in_bounds(rows, cols)
-    ok = inside.all(axis=1)
+    xs, ys = a[0] + t * (ends[:, :1] - a[0]), a[1] + t * (ends[:, 1:] - a[1])
+    rows, cols = grid.world_to_cell(xs, ys)
+    ok = grid.in_bounds(rows, cols).all(axis=1)
     if not ok.any():
         return False
-    return bool(clear[rows[ok], cols[ok]].all(axis=1).any())
+    x0, y0, x1, y1 = ends[:, 0].min(), ends[:, 1].min(), ends[:, 0].max(), ends[:, 1].max()
+    own = (xs >= x0) & (xs <= x1) & (ys >= y0) & (ys <= y1)
+    return bool((clear[rows[ok], cols[ok]] | own[ok]).all(axis=1).any())
 
 
 def sees_target(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], position,
