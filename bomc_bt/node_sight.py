@@ -78,9 +78,9 @@ def face_points(footprint, inset: float = FACE_INSET) -> np.ndarray:
 
 
 def sees_faces(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], footprint) -> bool:
-    """Some point of :func:`face_points` has a line from ``a`` clear on ``clear``, itself
-    included, but for the part of the line inside the shrunk footprint: the object's own
-    cells (its lidar outline, where a footprint is no wider than the object) do not hide it."""
+    """Some point of :func:`face_points` has a line from ``a`` clear on ``clear`` up to where
+    it enters the footprint: the cells inside are the object's own (its lidar outline,
+    where the footprint is no wider than the object)."""
     ends = face_points(footprint)
     n = max(2, int(np.hypot(ends[:, 0] - a[0], ends[:, 1] - a[1]).max() / (grid.resolution * 0.5)))
     t = np.linspace(0.0, 1.0, n)[None, :]
@@ -89,7 +89,7 @@ def sees_faces(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], f
     ok = grid.in_bounds(rows, cols).all(axis=1)
     if not ok.any():
         return False
-    x0, y0, x1, y1 = ends[:, 0].min(), ends[:, 1].min(), ends[:, 0].max(), ends[:, 1].max()
+    x0, y0, x1, y1 = (float(v) for v in footprint)
     own = (xs >= x0) & (xs <= x1) & (ys >= y0) & (ys <= y1)
     return bool((clear[rows[ok], cols[ok]] | own[ok]).all(axis=1).any())
 
