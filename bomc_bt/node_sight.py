@@ -9,19 +9,22 @@ A node's centre is inside its object, whose own cells (occupied, or unknown in i
 shadow) would hide it, so the first rule tested the line only up to half a metre short of
 the centre (:func:`sees_node`). Objects stand against walls: a door on one face of a
 wall, a table pushed against one. Half a metre short of such a centre lies on the wall's
-other side, so every place behind the wall "saw" it. Planned against the objects of a
-36 x 28 m office on its built map (every reached place 0.5 m apart, objects within 5 m),
-15 % of the pairs that rule counted as in sight had a wall between them, nine in ten of
-them doors; a refresh stop planned there looked at a wall and counted nothing (session 80:
-a table carried off stayed on the map for a pass).
+other side, so every place behind the wall "saw" it. Planned against the nodes of five
+36 x 28 m offices after twelve passes, on their built maps (reached places 0.5 m apart,
+nodes within 5 m; ``benchmarks/bench_node_sight.py``), 16-20 % of the
+pairs that rule counted as in sight had a wall between the place and every face of the
+object, four in five of them doors; a refresh stop planned there looked at a wall and
+counted nothing (session 80: a table carried off stayed on the map for a pass), and Look
+Around turned to walls.
 
-With the node's floor footprint (robust association keeps one, the box the object's
-points covered) the line goes instead to points on the outline of that box, shrunk by
-:data:`FACE_INSET` (a footprint is padded by noise and by depth that bled onto the
-wall behind), and the node is in sight when any one of them is: the camera sees a face.
-On the same office that leaves 2 % of the pairs in sight walled off, and counts a fifth
-as many of the pairs with a face in plain view as out of sight (1,144 against 3,151).
-A node without a footprint (``association.mode: paper``, a sighting) keeps the old rule.
+With the node's floor footprint (robust association keeps one: the box the object's
+points covered, padded by noise and by depth that bled onto the wall behind) the line
+goes instead to points on the outline of that box shrunk by :data:`FACE_INSET`, and
+must be clear up to where it enters the box: the cells inside are the object's own (its
+lidar outline). The node is in sight when one such line is: the camera sees a face. On
+the same offices 3-8 % of the pairs in sight are walled off, and a fifth as many pairs
+with a face in plain view are counted out of sight. A node without a footprint
+(``association.mode: paper``, a first sighting) keeps the old rule.
 """
 
 from __future__ import annotations
