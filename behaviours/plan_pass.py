@@ -102,18 +102,20 @@ class PlanTraversal(Leaf):
         ctx.store.set_progress(budget_key(ctx.session), ctx.budget.to_json())
         return plan
 
-    def known_nodes(self) -> np.ndarray:
-        """(N, 2) positions of the graph's present nodes: each is to be seen once from near."""
+    def known_nodes(self) -> tuple[np.ndarray, list]:
+        """(N, 2) positions of the graph's present nodes, each to be seen once from near, and
+        their footprints (None where a node has none)."""
         graph = self.context.graph
-        nodes = [n.position[:2] for n in (graph.nodes.values() if graph is not None else ()) if n.state == PRESENT]
-        return np.array(nodes, dtype=float).reshape(-1, 2)
+        nodes = [n for n in (graph.nodes.values() if graph is not None else ()) if n.state == PRESENT]
+        return np.array([n.position[:2] for n in nodes], dtype=float).reshape(-1, 2), [n.footprint for n in nodes]
 
     def full_plan(self) -> TraversalPlan:
         ctx = self.context
         if ctx.config.traversal.plan == "coverage":
+            known, footprints = self.known_nodes()
             covering = plan_coverage(ctx.robot.live_map(), ctx.robot.pose(), self.params.view_range,
-                                     ctx.config.traversal, ctx.config.sim.planner, self.known_nodes(),
-                                     self.params.close_range, self.params.known_radius)
+                                     ctx.config.traversal, ctx.config.sim.planner, known,
+                                     self.params.close_range, self.params.known_radius, footprints)
             write_json(ctx.site.plan_json, covering.plan.to_json())
             return covering.plan
         grid = ctx.robot.live_map()

@@ -22,7 +22,9 @@ would need.
 
 ``--known`` gives the plan the world's objects as the graph's nodes (as a later session
 has them), each to be looked at once from within ``projection.miss_full_range``
-(bomc_bt/coverage_known.py); the ``near`` column counts the nodes so looked at.
+(bomc_bt/coverage_known.py); the ``near`` column counts the nodes so looked at. A node is
+shown by the floor near it that sees a face of its box; ``--centre-only`` gives the nodes no
+box, so floor across the wall a door or a table stands against shows it too (before session 81).
 
 A real pass also sees floor while turning and drives smoother legs; Cover Gaps and the
 refresh tour come on top (``bomc monitor`` reports the whole pass).
@@ -109,13 +111,15 @@ def turning(grid, start: Pose2D, waypoints: list[Pose2D], planner_params) -> flo
     return total
 
 
-def world_objects(world_yaml: Path) -> np.ndarray:
-    """(N, 2) positions of a world's objects: the known nodes of ``--known``."""
+def world_objects(world_yaml: Path) -> tuple[np.ndarray, list]:
+    """(N, 2) positions of a world's objects, the known nodes of ``--known``, and their boxes."""
     world = load_world(world_yaml)
-    return np.array([o.position[:2] for o in world.objects.values()], dtype=float).reshape(-1, 2)
+    objects = list(world.objects.values())
+    boxes = [np.concatenate([o.footprint().min(axis=0), o.footprint().max(axis=0)]) for o in objects]
+    return np.array([o.position[:2] for o in objects], dtype=float).reshape(-1, 2), boxes
 
 
-def floors(args, tmp: Path) -> list[tuple[str, Path, Pose2D, np.ndarray | None]]:
+def floors(args, tmp: Path) -> list[tuple[str, Path, Pose2D, tuple | None]]:
     out = []
     for spec in args.office:
         size, seed = spec.split(":")
@@ -144,6 +148,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--site", action="append", default=[], metavar="DIR", help="a saved site's folder")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a traversal parameter")
     ap.add_argument("--known", action="store_true", help="the worlds' objects as known nodes, each looked at from near")
+    ap.add_argument("--centre-only", action="store_true",
+                    help="with --known: the nodes without footprints (floor near a node shows it across a wall)")
     ap.add_argument("--reach", type=float, default=None, metavar="M",
                     help="the camera reach [m] the plan assumes (default: projection.expect_range)")
     args = ap.parse_args(argv)
@@ -163,8 +169,10 @@ def main(argv: list[str] | None = None) -> int:
         for name, map_yaml, start, known in floors(args, Path(tmp)):
             grid = load_map(map_yaml)
             began = time.process_time()
-            plan = plan_coverage(grid, start, reach, params, config.sim.planner, known,
-                                 config.projection.miss_full_range)
+            positions, boxes = known if known is not None else (None, None)
+            plan = plan_coverage(grid, start, reach, params, config.sim.planner, positions,
+                                 config.projection.miss_full_range,
+                                 known_footprints=None if args.centre_only else boxes)
             cpu = time.process_time() - began
             km = leg_length(grid, start, plan.viewpoints, config.sim.planner) / 1000
             seen, faced = seen_share(grid, start, plan, params, config.sim.planner, reach)

@@ -18,11 +18,13 @@ targets like floor, so a node already seen from near on the way costs nothing.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.node_sight import camera_clear, sees_target
 from bomc_bt.sight import Sight, along_paths
 
 
@@ -50,7 +52,10 @@ class KnownTargets:
 
     @classmethod
     def build(cls, grid: OccupancyGrid, sight: Sight, positions: np.ndarray, radius: float, close_range: float,
-              weight: int, min_range: float) -> KnownTargets:
+              weight: int, min_range: float, footprints: Sequence | None = None) -> KnownTargets:
+        """``footprints`` (one per node, each None or x0, y0, x1, y1): a floor target shows a node
+        only where it sees a face of its footprint (:func:`~bomc_bt.node_sight.sees_target`),
+        not across the wall it stands against (a door on a wall's far face)."""
         positions = np.asarray(positions, dtype=float).reshape(-1, 2)
         h, w = sight.floor.shape
         step = grid.resolution * sight.lattice
@@ -65,6 +70,8 @@ class KnownTargets:
         inside[inside] &= sight.floor[ci[inside], cj[inside]]
         node = np.broadcast_to(np.arange(len(positions))[:, None], ci.shape)[inside]
         target = (ci * w + cj)[inside]
+        if footprints is not None and len(node):
+            node, target = _facing(grid, sight.lattice, w, positions, footprints, node, target)
         order = np.argsort(target, kind="stable")
         t_ptr = np.concatenate([[0], np.cumsum(np.bincount(target, minlength=h * w))])
         leg_range = close_range - radius
@@ -122,3 +129,14 @@ class KnownTargets:
         out[is_floor] = floor_xy(targets[is_floor])
         out[~is_floor] = self.positions[(targets[~is_floor] - self.n_floor) // self.weight]
         return out
+
+
+def _facing(grid: OccupancyGrid, lattice: int, width: int, positions: np.ndarray, footprints: Sequence,
+            node: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (node, floor target) pairs whose target sees a face of the node's footprint."""
+    clear = camera_clear(grid)
+    rows, cols = np.divmod(target, width)
+    x, y = grid.cell_to_world(rows * lattice, cols * lattice)
+    keep = np.array([sees_target(grid, clear, (float(x[i]), float(y[i])), positions[n], footprints[n])
+                     for i, n in enumerate(node)], dtype=bool)
+    return node[keep], target[keep]

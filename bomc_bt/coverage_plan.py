@@ -76,12 +76,14 @@ class CoveragePlan:
 
 def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params: TraversalParams | None = None,
                   planner_params: PlannerParams | None = None, known: np.ndarray | None = None,
-                  close_range: float = 0.0, known_radius: float = 0.5) -> CoveragePlan:
+                  close_range: float = 0.0, known_radius: float = 0.5,
+                  known_footprints: list | None = None) -> CoveragePlan:
     """Viewpoints that see the floor, each with the headings to face, in tour order.
 
     ``known`` (N, 2): the graph's nodes; each is also looked at once from within
     ``close_range`` (``projection.miss_full_range``): a place sees it when it sees floor within
-    ``known_radius`` of it (:mod:`bomc_bt.coverage_known`)."""
+    ``known_radius`` of it and facing it (``known_footprints``, one per node, each None or a
+    box; :mod:`bomc_bt.coverage_known`)."""
     params = params or TraversalParams()
     planner = GridPlanner(grid, planner_params)
     k = max(1, int(round(params.target_step / grid.resolution)))
@@ -97,7 +99,7 @@ def plan_coverage(grid: OccupancyGrid, start: Pose2D, view_range: float, params:
     min_count = max(1, int(math.ceil((params.min_gain / (k * grid.resolution)) ** 2 - 1e-9)))
     hfov = math.radians(params.hfov_deg)
     nodes = KnownTargets.build(grid, sight, np.zeros((0, 2)) if known is None or close_range <= 0 else known,
-                               known_radius, close_range, min_count, params.min_range)
+                               known_radius, close_range, min_count, params.min_range, known_footprints)
     views = nodes.extend_views(views, xy)
     n_targets = nodes.n_targets
     chosen, credited = greedy_cover(views, xy, n_targets, start.xy, params.stop_cost, min_count)

@@ -78,3 +78,18 @@ def test_after_near_looks_reorder_the_tour_its_stops_still_face_the_floor_it_cov
     unfaced = plan.covered & ~faced_floor(grid, plan)
     unfaced_before = floor_only.covered & ~faced_floor(grid, floor_only)
     assert unfaced.sum() <= max(unfaced_before.sum(), 0.01 * plan.covered.sum())
+
+
+def test_a_door_on_the_room_side_of_a_wall_gets_its_near_look_from_the_room():
+    """A door on the middle room's face of the corridor wall (y 4.55 m, 2 m from the room's
+    doorway). The corridor floor within ``known_radius`` of its centre lies behind the wall: a
+    look from there faces the wall. Shown only by floor that sees a face of its footprint, the
+    plan looks at it from the room, and its tour is no longer for it."""
+    grid = office()
+    door, footprint, face = (7.0, 4.62), np.array([6.55, 4.45, 7.45, 4.80]), (7.0, 4.75)
+    across = plan_coverage(grid, DOCK, RANGE, known=np.array([door]), close_range=CLOSE)
+    assert not any(sees(grid, s, face) and math.dist(s, face) <= CLOSE for s in across.viewpoints)
+    plan = plan_coverage(grid, DOCK, RANGE, known=np.array([door]), close_range=CLOSE, known_footprints=[footprint])
+    assert nearest_look(grid, plan.viewpoints, face) <= CLOSE
+    assert (plan.known, plan.known_near) == (1, 1)
+    assert plan.plan.grid_length < across.plan.grid_length
