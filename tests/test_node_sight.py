@@ -10,7 +10,7 @@ from bomc_bt.geometry import Pose2D
 from bomc_bt.graph import AssociationParams, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import unverified_headings
-from bomc_bt.node_sight import FACE_INSET, camera_clear, face_points, sees_node, sees_target
+from bomc_bt.node_sight import FACE_INSET, camera_clear, face_points, sees_faces, sees_node, sees_target
 from bomc_bt.refresh import refresh_viewpoints
 
 FOV = math.radians(60.0)
@@ -71,11 +71,15 @@ def test_a_table_against_a_wall_is_seen_from_its_own_room_over_its_own_outline()
     assert not sees_target(blocked, camera_clear(blocked), EAST, (7.45, 5.0), box)
 
 
-def test_a_node_without_a_footprint_keeps_the_centre_rule():
+def test_a_node_without_a_footprint_or_outside_its_own_keeps_the_centre_rule():
     grid = two_rooms()
     clear = camera_clear(grid)
     for place, centre in ((WEST, (7.2, 5.0)), (EAST, (7.2, 5.0)), (WEST, (7.7, 5.0)), ((9.0, 9.0), (8.0, 6.0))):
         assert sees_target(grid, clear, place, centre, None) == sees_node(grid, clear, place, centre)
+    # a box a metre off the node's place describes another view: the centre rule decides
+    off = (6.55, 4.45, 6.95, 5.55)  # in the west room, while the node stands east of the wall
+    assert sees_faces(grid, clear, WEST, off)
+    assert not sees_target(grid, clear, WEST, (8.0, 5.0), off)
 
 
 def test_face_points_lie_on_the_footprint_shrunk_by_the_inset():
