@@ -2,8 +2,9 @@
 
 The pass asks it wherever it plans a look at a node it already knows: the headings Look
 Around turns to (:func:`~bomc_bt.monitoring.unverified_headings`), whether a missed node is
-in front of the robot (:func:`~bomc_bt.look_around.pending_in_front`), and which reached
-places a refresh stop may stand at (:mod:`bomc_bt.refresh`).
+in front of the robot (:func:`~bomc_bt.look_around.pending_in_front`), which reached
+places a refresh stop may stand at (:mod:`bomc_bt.refresh`), and which floor shows a known
+node to the coverage plan (:mod:`bomc_bt.coverage_known`).
 
 A node's centre is inside its object, whose own cells (occupied, or unknown in its lidar
 shadow) would hide it, so the first rule tested the line only up to half a metre short of
@@ -11,7 +12,7 @@ the centre (:func:`sees_node`). Objects stand against walls: a door on one face 
 wall, a table pushed against one. Half a metre short of such a centre lies on the wall's
 other side, so every place behind the wall "saw" it. Planned against the nodes of five
 36 x 28 m offices after twelve passes, on their built maps (reached places 0.5 m apart,
-nodes within 5 m; ``benchmarks/bench_node_sight.py``), 16-20 % of the
+nodes within 5 m; ``benchmarks/bench_node_sight.py``), 15-20 % of the
 pairs that rule counted as in sight had a wall between the place and every face of the
 object, four in five of them doors; a refresh stop planned there looked at a wall and
 counted nothing (session 80: a table carried off stayed on the map for a pass), and Look
