@@ -96,7 +96,7 @@ def _faced(pose: Pose2D, place, headings: list[float], radius: float, fov: float
 def pending_in_front(graph, pose: Pose2D, grid: OccupancyGrid, radius: float, fov: float) -> bool:
     """A node missed by a near, clear view since its last detection (a run of misses weighing
     1 or more, :mod:`bomc_bt.graph.evidence`) lies within ``radius`` and half the camera's
-    ``fov`` of the heading, in the camera's line of sight (:func:`~bomc_bt.monitoring.camera_clear`).
+    ``fov`` of the heading, in the camera's line of sight (:func:`~bomc_bt.node_sight.camera_clear`).
     The frames of the next ``dwell`` decide it: its misses run on to a removal or a detection
     confirms it. Turning away at once, as the robot did at a stop planned to face such a
     node, left a table taken away from a wall on the map for passes: its misses counted only

@@ -71,7 +71,8 @@ def sees_node(grid: OccupancyGrid, clear: np.ndarray, a: tuple[float, float], b:
 
 def face_points(footprint, inset: float = FACE_INSET) -> np.ndarray:
     """(12, 2): points on the outline of ``footprint`` (x0, y0, x1, y1) shrunk by ``inset``
-    on every side (a side shorter than twice that shrinks to its middle)."""
+    on every side (a side shorter than twice that shrinks to its middle; a negative ``inset``
+    grows it, as ``benchmarks/bench_node_sight.py`` does for points just off an object's faces)."""
     x0, y0, x1, y1 = (float(v) for v in footprint)
     cx, cy = (x0 + x1) / 2.0, (y0 + y1) / 2.0
     x0, x1 = min(x0 + inset, cx), max(x1 - inset, cx)

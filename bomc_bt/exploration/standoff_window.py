@@ -102,7 +102,7 @@ def nearest_in_sight(occupied: np.ndarray, rows: np.ndarray, cols: np.ndarray, g
 def in_sight(occupied: np.ndarray, rows: np.ndarray, cols: np.ndarray, rows_b: np.ndarray,
              cols_b: np.ndarray) -> np.ndarray:
     """Bool per pair of cells: no occupied cell on the straight line between them (sampled
-    every quarter cell). The many-pairs, cell-index form of :func:`bomc_bt.monitoring.line_of_sight`,
+    every quarter cell). The many-pairs, cell-index form of :func:`bomc_bt.node_sight.line_of_sight`,
     and unlike it unknown cells do not block: the frontier cell borders unknown space."""
     span = np.maximum(np.abs(rows_b - rows), np.abs(cols_b - cols))
     steps = int(4 * span.max()) + 1 if span.size else 1
