@@ -43,6 +43,7 @@ from __future__ import annotations
 import base64
 import math
 import zlib
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,13 +54,27 @@ from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key, unpack_mask
 from bomc_bt.sightings import unpack_sightings
 
-FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail
+FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail (and a pass end's ``updated`` verdict)
 SIGHTED_IN = "sighted_in"  # beside it: the pass that had detected the object there (bomc_bt.sightings)
 
 
 def is_first_seen(event: Event) -> bool:
     """Whether ``event`` added its node at a place no earlier pass had seen."""
     return event.kind == "added" and bool((event.detail or {}).get(FIRST_SEEN, False))
+
+
+def first_seen_verdicts(events: Iterable[Event]) -> dict[int, bool]:
+    """Per node added among ``events`` (write order), whether it is new to the map: its first
+    ``added`` event's mark, or the last verdict after it that a pass end wrote (an ``updated``
+    event whose detail carries ``first_seen``: :meth:`SeenBefore.final_verdicts`)."""
+    out: dict[int, bool] = {}
+    for e in events:
+        nid = int(e.node_id)
+        if e.kind == "added" and nid not in out:
+            out[nid] = is_first_seen(e)
+        elif e.kind == "updated" and nid in out and FIRST_SEEN in (e.detail or {}):
+            out[nid] = bool(e.detail[FIRST_SEEN])
+    return out
 
 
 @dataclass
@@ -99,22 +114,48 @@ class SeenBefore:
     def mark(self, events: list[Event]) -> int:
         """Mark as first seen the ``added`` events at places no earlier pass saw, and those
         where the previous pass detected an object of their category; how many."""
-        added = [e for e in events if e.kind == "added"]
-        if not added:
-            return 0
-        xy = np.array([np.asarray(e.position, dtype=float)[:2] for e in added])
-        saw = self.saw(xy)
         marked = 0
-        for i, event in enumerate(added):
-            mask = self.sighted.get(event.category)
-            if not saw[i]:
-                event.detail = {**(event.detail or {}), FIRST_SEEN: True}
-            elif mask is not None and self.saw(xy[i], mask)[0] and not self._removed_near(event.category, xy[i]):
-                event.detail = {**(event.detail or {}), FIRST_SEEN: True, SIGHTED_IN: self.sighted_in}
-            else:
-                continue
-            marked += 1
+        for event in (e for e in events if e.kind == "added"):
+            verdict = self.verdict(event.category, event.position)
+            if verdict[FIRST_SEEN]:
+                event.detail = {**(event.detail or {}), **verdict}
+                marked += 1
         return marked
+
+    def verdict(self, category: str, position: np.ndarray) -> dict:
+        """What an addition of ``category`` at ``position`` (x, y[, z]) is: ``{"first_seen":
+        True}`` where no earlier pass saw the place, with ``"sighted_in"`` where the previous
+        pass detected an object of its kind there (and did not see such an object go from
+        there); ``{"first_seen": False}``: an addition."""
+        xy = np.asarray(position, dtype=float)[:2]
+        if not self.saw(xy)[0]:
+            return {FIRST_SEEN: True}
+        if self.sighted_here(category, xy) and not self._removed_near(category, xy):
+            return {FIRST_SEEN: True, SIGHTED_IN: self.sighted_in}
+        return {FIRST_SEEN: False}
+
+    def final_verdicts(self, arrivals: Iterable[Node], history: Iterable[Event]) -> list[tuple[Node, dict]]:
+        """When a pass ends: each of its ``arrivals`` (nodes it added, as they stand now) whose
+        verdict at its final place differs from the one its ``history`` holds (:meth:`mark`'s,
+        made where the node stood when added), with the new verdict.
+
+        Why: a node is added where its first confirmed views put it, and a view of one end of
+        an object puts it off the object's middle. A door seen first edge-on from the corridor
+        stood 0.41 m along its wall from where the previous pass had detected it, beyond the
+        sighting radius, and was reported added; the pass's later views brought the node
+        within 0.12 m of that sighting (93 x 90 m office, seed 8231, pass 2). The other way
+        too: a chair's first place fell within the radius of a sighting of the chair beside it,
+        its final place did not, and a true addition was called first seen (36 x 28 m office,
+        seed 8223, pass 5). Where the object stands is the node's final place."""
+        known = first_seen_verdicts(history)
+        out = []
+        for v in arrivals:
+            if v.id not in known:
+                continue
+            verdict = self.verdict(v.category, v.position)
+            if verdict[FIRST_SEEN] != known[v.id]:
+                out.append((v, verdict))
+        return out
 
     def _removed_near(self, category: str, xy: np.ndarray) -> bool:
         """Whether the previous pass removed a node of ``category`` on evidence of absence

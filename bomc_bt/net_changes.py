@@ -14,8 +14,9 @@ compares each node that had an event in it:
 * anything else (removed and found again, moved away and back, a nudge) is no change;
 * a node folded into another as a duplicate (a removal with ``merged_into``) is no change
   either: the object is still there, under the other node's id;
-* absent -> present where the event that added the node in the period was marked first
-  seen (no earlier pass had seen that place, :mod:`bomc_bt.first_seen`): ``first_seen``,
+* absent -> present where the node's addition in the period was marked first seen (no
+  earlier pass had seen that place, :mod:`bomc_bt.first_seen`; the mark of the event that
+  added it, or the verdict the pass end wrote for its final place): ``first_seen``,
   new to the map and not a change. It is listed apart and is no change an evaluation
   scores. From the empty map (``since=None``) every new node is ``added``;
 * present -> absent where the removal was marked retracted (the node had been matched in
@@ -38,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from bomc_bt.first_seen import is_first_seen
+from bomc_bt.first_seen import first_seen_verdicts
 from bomc_bt.graph import Event
 from bomc_bt.graph.brought_back import back_of
 from bomc_bt.graph.refinement import refined_shifts
@@ -132,11 +133,9 @@ def net_changes(events: Sequence[Event], since: int | None,
     after = _replay(period)
     refined, back = refined_shifts(period), back_of(period)
     counts: dict[int, int] = {}
-    first_added: dict[int, Event] = {}
     for e in period:
         counts[int(e.node_id)] = counts.get(int(e.node_id), 0) + 1
-        if e.kind == "added":
-            first_added.setdefault(int(e.node_id), e)
+    new_to_map = first_seen_verdicts(period) if since is not None else {}
     out = []
     for nid in sorted(after):
         b, a = before.get(nid), after[nid]
@@ -157,9 +156,9 @@ def net_changes(events: Sequence[Event], since: int | None,
                                  a.last_seen, a.session, a.stamp, counts[nid],
                                  bool((a.detail or {}).get("merged", False))))
         elif now and not was:
-            new_to_map = since is not None and nid in first_added and is_first_seen(first_added[nid])
-            out.append(NetChange(FIRST_SEEN if new_to_map else "added", nid, a.category, None, pos, 0.0, None,
-                                 None, a.session, a.stamp, counts[nid], back_of=back.get(nid)))
+            kind = FIRST_SEEN if new_to_map.get(nid, False) else "added"
+            out.append(NetChange(kind, nid, a.category, None, pos, 0.0, None, None, a.session, a.stamp, counts[nid],
+                                 back_of=back.get(nid)))
     return sorted(out, key=lambda c: (REPORTED_KINDS.index(c.kind), c.node_id))
 
 

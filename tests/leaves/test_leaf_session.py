@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import py_trees
@@ -13,9 +14,13 @@ from behaviours.common import Fail, FailParams, Wait, WaitParams
 from behaviours.perceive import PerceiveAssociate
 from behaviours.save_map import SaveMap
 from behaviours.session import EndSession, EndSessionParams, PairRelocations, StartSession
+from bomc_bt.first_seen import FIRST_SEEN, SIGHTED_IN, SeenBefore
 from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
+from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.monitoring import FrameResult
+from bomc_bt.net_changes import net_changes
 from bomc_bt.robot import RGBDFrame
+from bomc_bt.sightings import Sightings
 
 
 def test_start_session_opens_the_session_in_the_store(ctx):
@@ -181,3 +186,52 @@ def test_pair_relocations_marks_a_table_seen_whole_after_one_end_as_refined_in_t
     last = ctx.store.events(session=2)[-1]
     assert last.kind == "updated" and last.detail[REFINED_FROM][0] == 0.25
     assert net_changes(ctx.store.events(until=2), 1, ctx.graph.threshold) == []
+
+
+def door_added_off_its_middle(ctx, seen) -> None:
+    """Pass 2 of a site whose pass 1 (one chair far off) detected a door at (5.0, 5.0) without
+    confirming it: pass 2's first view of the door put its node 0.55 m along the wall, beyond
+    the sighting radius, so the frame marked it an addition; its later views brought it to
+    5.05 m."""
+    ctx.graph = ObjectGraph(AssociationParams(confirm_detections=1))
+    for n in (1, 2):
+        ctx.store.begin_session(n, {"stamp": 0.0})
+    ctx.store.record([Event("added", 99, "chair", np.array([9.0, 9.0, 0.4]), 1, 1.0)], [])
+    ctx.session = 2
+    events = ctx.graph.associate([Observation("door", np.array([5.55, 5.0, 1.0]), 0.9, 500, 0.0)], [], 2, 10.0)
+    seen.mark(events)
+    ctx.store.record(events, ctx.graph.drain_changed())
+    ctx.graph.nodes[0].position = np.array([5.05, 5.0, 1.0])
+    ctx.perception = SimpleNamespace(seen_before=seen, events=[])
+
+
+def door_sighted_in_pass_1() -> SeenBefore:
+    grid = OccupancyGrid(np.zeros((100, 100), dtype=np.int8), 0.1, (0.0, 0.0))
+    sightings = Sightings(grid)
+    sightings.add([Observation("door", np.array([5.0, 5.0, 1.0]), 0.9, 500, 0.0)])
+    return SeenBefore(grid, np.ones(grid.data.shape, dtype=bool),
+                      {c: inflate_mask(m, 0.35 / grid.resolution) for c, m in sightings.masks.items()}, 1)
+
+
+def net_kind(ctx, node_id: int) -> str:
+    return {c.node_id: c.kind for c in net_changes(ctx.store.events(until=2), 1, lambda _c: 0.7)}[node_id]
+
+
+def test_pair_relocations_judges_each_addition_again_where_it_stands(ctx):
+    door_added_off_its_middle(ctx, door_sighted_in_pass_1())
+    assert net_kind(ctx, 0) == "added"
+    leaf = PairRelocations("Pair", None, ctx)
+    assert tick(leaf) == Status.SUCCESS and "1 addition(s) judged again" in leaf.feedback_message
+    assert net_kind(ctx, 0) == "first_seen"  # the door pass 1 had detected, not a change
+    assert [e.detail for e in ctx.store.events(session=2) if e.kind == "updated"] == [
+        {FIRST_SEEN: True, SIGHTED_IN: 1}]
+    assert tick(PairRelocations("Pair Again", None, ctx)) == Status.SUCCESS  # a resumed pass ending again
+    assert len([e for e in ctx.store.events(session=2) if e.kind == "updated"]) == 1
+
+
+def test_pair_relocations_judges_nothing_where_what_earlier_passes_saw_is_unknown(ctx):
+    door_added_off_its_middle(ctx, door_sighted_in_pass_1())
+    ctx.perception = SimpleNamespace(seen_before=None, events=[])
+    leaf = PairRelocations("Pair", None, ctx)
+    assert tick(leaf) == Status.SUCCESS and "judged again" not in leaf.feedback_message
+    assert net_kind(ctx, 0) == "added"
