@@ -19,7 +19,6 @@ from bomc_bt.refresh import (
     object_boxes,
     refresh_viewpoints,
     second_look_places,
-    sighting_looks,
     stale_nodes,
 )
 from bomc_bt.traversal import TraversalPlan
@@ -313,24 +312,3 @@ def test_added_times_are_each_node_s_first_addition_in_the_pass():
     events = [ev("added", 4, 10.0), ev("updated", 4, 11.0), ev("removed", 4, 20.0), ev("added", 4, 30.0),
               ev("added", 7, 15.0), ev("moved", 8, 16.0)]
     assert added_times(events) == {4: 10.0, 7: 15.0}
-
-
-def test_the_looks_that_must_decide_are_not_cut_by_the_stop_count_only_by_the_budget():
-    """Four first sightings 6 m apart along the corridor, each needing its own look from within
-    2.5 m: with max_viewpoints 2 all four are looked at, since only the budget bounds the looks
-    that decide; the stale nodes' stops are what max_viewpoints caps (none left for them here)."""
-    sightings = sighting_looks([node(0, x, 3.0, None) for x in (4.0, 10.0, 16.0, 22.0)])
-    stale = [node(9, 27.0, 3.0, 100.0)]
-    params = RefreshParams(max_viewpoints=2)
-    stops = refresh_viewpoints(corridor(), stale, NOW, CANDIDATES, Pose2D(1, 1, 0), 100.0, euclidean, params,
-                               second_looks=[(s, None) for s in sightings])
-    assert len(stops) == 4
-    assert all(min(math.dist((p.x, p.y), s.position[:2]) for p in stops) <= params.look_range + 1e-6
-               for s in sightings)
-    assert not any(math.dist((p.x, p.y), stale[0].position[:2]) <= 5.0 for p in stops)  # the cap is spent
-    few = refresh_viewpoints(corridor(), stale, NOW, CANDIDATES, Pose2D(1, 1, 0), 12.0, euclidean, params,
-                             second_looks=[(s, None) for s in sightings])
-    assert len(few) < 4  # the budget still bounds them
-    alone = refresh_viewpoints(corridor(), [node(i, x, 3.0, 100.0) for i, x in enumerate((4.0, 16.0, 27.0))], NOW,
-                               CANDIDATES, Pose2D(1, 1, 0), 100.0, euclidean, params)
-    assert len(alone) == 2  # stale nodes alone: max_viewpoints stops
