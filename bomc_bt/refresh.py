@@ -104,10 +104,6 @@ class RefreshParams:
     look_range: float = 2.5
     min_range: float = 0.5  # m: nearer, the node is below the tilted camera's image
     stop_cost: float = 3.0  # m of driving that one stop's turning and dwelling are worth
-    # [count] stops at most, counting the stale nodes' stops after the looks that must decide; those
-    # (second looks, unresolved nodes, unconfirmed sightings) are bounded by the budget alone: a count
-    # does not grow with the floor, and on a 93 x 90 m floor 20 stops left 16 of 41 such places
-    # unlooked, two of them objects pass 1 then missed (a door, a chair caught once each)
     max_viewpoints: int = 20
     hfov_deg: float = 50.0  # planned field of view: the camera's, less a margin
     # [m] how far from a goal the robot may stop and count it reached (the leaf takes
@@ -198,8 +194,7 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
     (:meth:`~bomc_bt.graph.ObjectGraph.awaiting_second_look`); one given None was left
     unresolved by the pass (:meth:`~bomc_bt.graph.ObjectGraph.unresolved`), or is a
     :class:`SightingLook`, and may be looked at from anywhere. Their stops are chosen first,
-    the most of them per metre, as many as the budget allows, then the stale nodes' by age
-    (up to ``max_viewpoints`` stops in all), and none looks at them past one
+    the most of them per metre, then the stale nodes' by age, and none looks at them past one
     of ``occluders`` (M, 4: the objects' boxes x0, y0, x1, y1; with ``occluder_ids`` (M,), a
     node's own box is not in its way; a miss counts only where the view is clear). The stops
     come in driving order.
@@ -238,9 +233,8 @@ def refresh_viewpoints(grid: OccupancyGrid, stale: Sequence[Node], now: float, c
     route = _Route(distances, candidates, (start.x, start.y))
     headings: dict[int, float] = {}
     first = np.arange(len(nodes)) < len(second_looks)
-    # the looks that must decide first, bounded by the budget alone; then the stale nodes by age, up to the cap
-    for weight, cap in ((first.astype(float), math.inf), (np.where(first, 0.0, age), params.max_viewpoints)):
-        while len(headings) < cap:
+    for weight in (first.astype(float), np.where(first, 0.0, age)):  # second looks first, then by age
+        while len(headings) < params.max_viewpoints:
             gain = (sight & ~covered) @ weight
             extra, after = route.insertion_costs()
             score = np.where((gain > 0) & (route.length + extra <= budget), gain / (extra + params.stop_cost), 0.0)
