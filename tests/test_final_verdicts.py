@@ -33,7 +33,7 @@ def seen_with_sightings(*points: tuple[str, float]) -> SeenBefore:
 
 
 def pass_2_adds(seen: SeenBefore, category: str, x: float) -> tuple[ObjectGraph, list[Event]]:
-    """Pass 1 left an empty map; pass 2 adds a node of ``category`` at (x, 5), marked as the
+    """Pass 1 mapped one chair far off; pass 2 adds a node of ``category`` at (x, 5), marked as the
     frame that added it marks it."""
     graph = ObjectGraph(AssociationParams(confirm_detections=1))
     history = [Event("added", 99, "chair", np.array([9.0, 9.0, 0.4]), 1, 1.0)]  # pass 1's only node
