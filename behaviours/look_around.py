@@ -27,8 +27,7 @@ class LookAround(ActionLeaf):
     no longer than the budget leaves after the way home (:func:`~bomc_bt.budget_pass.look_time_left`)."""
 
     Params = LookAroundParams
-    config_params = {"radius": "projection.expect_range", "refresh_after": "mission.stale_after",
-                     "camera_height": "camera.mount_height"}
+    config_params = {"radius": "projection.expect_range", "refresh_after": "mission.stale_after"}
 
     def send(self) -> None:
         ctx = self.context
@@ -37,7 +36,6 @@ class LookAround(ActionLeaf):
                                      ctx.config.camera.hfov_deg, ctx.now())
         place = None if self.pose is None else (self.pose.x, self.pose.y)
         ctx.graph.mark_sightings_looked(self.turns.faced, place)  # one look a place (a false positive's too)
-        ctx.graph.mark_sightings_looked(self.turns.faced_past, place, past=True)  # the refresh tour looks again
         self.time_left = None if ctx.budget is None or ctx.traverse is None else look_time_left(
             ctx.budget, ctx.now() - ctx.budget.started, ctx.traverse.current)
         return None  # the first turn starts on the first tick, like every later one

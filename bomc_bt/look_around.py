@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import unverified_headings
-from bomc_bt.node_sight import camera_clear, sees_node, sees_target
+from bomc_bt.node_sight import camera_clear, sees_target
 
 
 @dataclass
@@ -33,14 +33,8 @@ class LookAroundParams:
     # turn also towards first sightings the pass has not confirmed (an object the camera caught
     # in one frame on the way; :meth:`~bomc_bt.graph.ObjectGraph.unconfirmed_sightings`)
     unconfirmed: bool = True
-    # a line to such a sighting may cross the lidar outlines of objects lower than the camera
-    # (a chair behind the chair in front at a table; bomc_bt.look_over); False: free cells only
-    look_over: bool = True
-    camera_height: float = 1.1  # [m] the camera's height above the floor (the leaf takes camera.mount_height)
 
     def __post_init__(self) -> None:
-        if self.camera_height <= 0:
-            raise ValueError("camera_height must be > 0")
         if self.radius <= 0 or self.max_turns < 0 or self.dwell < 0 or self.timeout <= 0:
             raise ValueError("need radius > 0, max_turns >= 0, dwell >= 0 and timeout > 0")
         if self.refresh_after < 0:
@@ -57,8 +51,6 @@ class HeadTurns:
     dwell_until: float | None = field(default=None)
     # unconfirmed first sightings the headings face (the leaf marks them looked at, one look each)
     faced: list = field(default_factory=list)
-    # those of them faced only over furniture (bomc_bt.look_over): looked at, but left to the refresh tour
-    faced_past: list = field(default_factory=list)
 
     def dwelling(self, now: float) -> bool:
         """True while the robot faces the last heading it turned to."""
@@ -88,15 +80,10 @@ def plan_head_turns(graph, pose: Pose2D | None, session: int, grid: OccupancyGri
     sightings = graph.unconfirmed_sightings() if params.unconfirmed and pose is not None else []
     headings = [] if pose is None else unverified_headings(
         graph, pose, session, grid, params.radius, fov, params.max_turns,
-        now=now, stale_after=params.refresh_after, sightings=[t.position for t in sightings],
-        camera_height=params.camera_height if params.look_over else None)
+        now=now, stale_after=params.refresh_after, sightings=[t.position for t in sightings])
     hold = pose is not None and pending_in_front(graph, pose, grid, params.radius, fov)
     faced = [t for t in sightings if _faced(pose, t.position, headings, params.radius, fov)]
-    free = grid.free_mask() if faced and params.look_over else None
-    past = [] if free is None else \
-        [t for t in faced if not sees_node(grid, free, (pose.x, pose.y), (t.position[0], t.position[1]))]
-    faced = [t for t in faced if not any(t is p for p in past)]
-    return HeadTurns(headings, params.dwell, now + params.timeout, now + params.dwell if hold else None, faced, past)
+    return HeadTurns(headings, params.dwell, now + params.timeout, now + params.dwell if hold else None, faced)
 
 
 def _faced(pose: Pose2D, place, headings: list[float], radius: float, fov: float) -> bool:

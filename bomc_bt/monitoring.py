@@ -20,9 +20,7 @@ import cv2
 import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
-from bomc_bt.graph import PRESENT
 from bomc_bt.grid import OccupancyGrid
-from bomc_bt.look_over import over_furniture_clear
 from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
 from bomc_bt.pass_resume import ResumeText, earlier_co_observed, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
@@ -170,8 +168,7 @@ def detour_viewpoints(grid: OccupancyGrid, target: tuple[float, float], radius: 
 
 def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, radius: float,
                         fov: float, max_turns: int, now: float | None = None,
-                        stale_after: float = 0.0, sightings: Sequence[np.ndarray] = (),
-                        camera_height: float | None = None) -> list[float]:
+                        stale_after: float = 0.0, sightings: Sequence[np.ndarray] = ()) -> list[float]:
     """Headings to turn to so the camera checks nearby nodes this pass has not confirmed.
 
     A node not matched in this session (or with misses pending) is either still there,
@@ -191,10 +188,7 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
 
     ``sightings``: places (x, y[, z]) of first sightings the pass has not confirmed
     (:meth:`~bomc_bt.graph.ObjectGraph.unconfirmed_sightings`): an object the camera caught in
-    one frame on the way here; a turn towards it and the dwell after it add it, or not. The
-    camera saw that place, so a line to it may cross unknown cells, and with ``camera_height``
-    the lidar outlines of objects lower than the camera too (:mod:`bomc_bt.look_over`): a
-    chair behind the chair in front at a table; without it, free cells only.
+    one frame on the way here; a turn towards it and the dwell after it add it, or not.
     """
     square = np.array([[pose.x - radius, pose.y - radius], [pose.x + radius, pose.y - radius],
                        [pose.x + radius, pose.y + radius], [pose.x - radius, pose.y + radius]])
@@ -209,13 +203,10 @@ def unverified_headings(graph, pose: Pose2D, session: int, grid: OccupancyGrid, 
             continue
         if sees_target(grid, free, (pose.x, pose.y), node.position, node.footprint):
             bearings.append(math.atan2(dy, dx))
-    near = [p for p in sightings if 0.5 <= math.hypot(float(p[0]) - pose.x, float(p[1]) - pose.y) <= radius]
-    if near and camera_height is not None:
-        free = over_furniture_clear(grid, (n for n in graph.nodes.values() if n.state == PRESENT), camera_height,
-                                    around=(pose.x, pose.y, radius))
-    for place in near:
-        if sees_node(grid, free, (pose.x, pose.y), (place[0], place[1])):
-            bearings.append(math.atan2(float(place[1]) - pose.y, float(place[0]) - pose.x))
+    for place in sightings:
+        dx, dy = float(place[0]) - pose.x, float(place[1]) - pose.y
+        if 0.5 <= math.hypot(dx, dy) <= radius and sees_node(grid, free, (pose.x, pose.y), (place[0], place[1])):
+            bearings.append(math.atan2(dy, dx))
     headings: list[float] = []
     for b in sorted(bearings, key=lambda b: abs(wrap_angle(b - pose.yaw))):
         if all(abs(wrap_angle(b - h)) > 0.4 * fov for h in headings):

@@ -127,13 +127,11 @@ class ObjectGraph:
         return [t for t in tentative.unconfirmed(looked_within)
                 if not self.within(t.category, t.position, self.params.distance(t.category))]
 
-    def mark_sightings_looked(self, sightings: Sequence[Sighting], place: Sequence[float] | None = None,
-                              past: bool = False) -> None:
-        """A head turn faces ``sightings`` now, from ``place`` (x, y; None: up close); ``past``:
-        only over furniture (``TentativeSightings.mark_looked``)."""
+    def mark_sightings_looked(self, sightings: Sequence[Sighting], place: Sequence[float] | None = None) -> None:
+        """A head turn faces ``sightings`` now, from ``place`` (x, y; None: up close)."""
         tentative = getattr(self.policy, "tentative", None)
         if tentative is not None:
-            tentative.mark_looked(sightings, place, past)
+            tentative.mark_looked(sightings, place)
 
     def missed_up_close(self, node_id: int) -> bool:
         """Its run of misses since the last detection weighs one full miss or more: at least

@@ -45,9 +45,8 @@ class TentativeSightings:
         self.scale = scale  # (3,) distance weights, as the graph's index uses them
         self.waiting: list[Sighting] = []
         self.lapsed: list[Sighting] = []  # sightings of this session whose time ran out unconfirmed
-        # (category, place, distance, past) a head turn faced this session, from that far (m);
-        # past: only over furniture (see ``mark_looked``)
-        self.looked: list[tuple[str, np.ndarray, float, bool]] = []
+        # (category, place, distance) a head turn faced this session, from that far (m)
+        self.looked: list[tuple[str, np.ndarray, float]] = []
         self._session: int | None = None
         # per observation of the last confirm_frame: the ``beside`` of the sighting it confirmed
         self.beside_of: list[int | None] = []
@@ -69,14 +68,12 @@ class TentativeSightings:
         looked at again and never mapped (36 x 28 m office, seed 7913, pass 1; a wrong
         addition the next pass). A lone sighting is most often a false positive, and a look
         from afar settles it as before: counting every far turn as none sent the refresh tour
-        to 2-8 more of them a pass, 3-4 % more robot time, for no object found. A turn that
-        faced a place only over furniture counts for Look Around alone (``looked_within`` None)."""
+        to 2-8 more of them a pass, 3-4 % more robot time, for no object found."""
         pool = self.lapsed + self.waiting
         return [t for t in pool
                 if not any(self._same_place(t.category, t.position, c, p)
-                           and (looked_within is None
-                                or not past and (d <= looked_within or not self.backed(t, pool)))
-                           for c, p, d, past in self.looked)]
+                           and (looked_within is None or d <= looked_within or not self.backed(t, pool))
+                           for c, p, d in self.looked)]
 
     def backed(self, sighting: Sighting, pool: Sequence[Sighting]) -> bool:
         """Seen in two frames (not yet far enough apart in time to confirm), or another
@@ -87,19 +84,13 @@ class TentativeSightings:
             t is not sighting and t.category == sighting.category
             and float(np.linalg.norm((t.position - sighting.position) * self.scale)) <= reach for t in pool)
 
-    def mark_looked(self, sightings: Sequence[Sighting], place: Sequence[float] | None = None,
-                    past: bool = False) -> None:
+    def mark_looked(self, sightings: Sequence[Sighting], place: Sequence[float] | None = None) -> None:
         """A head turn faces ``sightings`` now (:mod:`bomc_bt.look_around`), from ``place`` (x, y;
-        None: up close). ``past``: the line from there runs over furniture (the map's unknown
-        round it, its lidar outline; :mod:`bomc_bt.look_over`). Such a turn is the one Look
-        Around makes, but it does not settle the sighting for the refresh tour, which looks
-        from near and clear of other objects: a trash bin caught once behind a chair, turned
-        to from 3 m past the chair and not seen, stayed off the map (36 x 28 m office, seed
-        8223, pass 6), where the tour would have looked."""
+        None: up close)."""
         for t in sightings:
             at = np.asarray(t.position, dtype=float).copy()
             d = 0.0 if place is None else float(np.hypot(at[0] - place[0], at[1] - place[1]))
-            self.looked.append((t.category, at, d, bool(past)))
+            self.looked.append((t.category, at, d))
 
     def _lapse(self, sighting: Sighting) -> None:
         """Keep ``sighting`` as lapsed, unless one lapsed already lies within its category's
@@ -117,14 +108,13 @@ class TentativeSightings:
         """The sightings waiting, JSON-able (a resumed pass picks them up again)."""
         return {"session": self._session, "waiting": [_sighting_json(t) for t in self.waiting],
                 "lapsed": [_sighting_json(t) for t in self.lapsed],
-                "looked": [[c, p.tolist(), d, past] for c, p, d, past in self.looked]}
+                "looked": [[c, p.tolist(), d] for c, p, d in self.looked]}
 
     def restore(self, data: dict) -> None:
         self._session = data.get("session")
         self.waiting = [_sighting(w) for w in data.get("waiting", [])]
         self.lapsed = [_sighting(w) for w in data.get("lapsed", [])]  # absent in a resume point saved before
-        self.looked = [(str(e[0]), np.asarray(e[1], dtype=float), float(e[2]) if len(e) > 2 else 0.0,
-                        bool(e[3]) if len(e) > 3 else False)
+        self.looked = [(str(e[0]), np.asarray(e[1], dtype=float), float(e[2]) if len(e) > 2 else 0.0)
                        for e in data.get("looked", [])]  # saved before distances were: up close
 
     def claims(self, o: Observation, node_id: int, node_distance: float, gate: float, stamp: float) -> bool:
