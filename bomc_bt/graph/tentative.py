@@ -9,8 +9,11 @@ observation that confirms it becomes the node, at the mean of the sightings.
 A sighting whose time runs out unconfirmed is kept as *lapsed* for the rest of the pass: an
 object the camera caught once while turning (a bin in a corner, a chair behind a table
 seen from a doorway 3.5 m away) is as likely as a false positive, and only a second look
-tells which. Look Around turns to it once (:mod:`bomc_bt.look_around`), and Refresh Stale
-plans a stop for what is left at the pass's end (:mod:`bomc_bt.refresh`).
+tells which. Look Around turns to it once (:mod:`bomc_bt.look_around`) where a line over
+free map cells reaches it, and Refresh Stale plans a stop for what is left at the pass's end
+(:mod:`bomc_bt.refresh`). Neither reaches a chair behind the chair in front at a table: it
+stands in the lidar shadow round the furniture, unknown on the map (docs/association.md,
+"A chair caught once behind the chair in front").
 """
 
 from __future__ import annotations
