@@ -7,6 +7,7 @@ node's status and the robot's pose at each tick; this script attributes each pos
 the phase running at that tick and prints one row per phase and per session given:
 
     python benchmarks/pass_phases.py SITE/sessions/1/timeline.jsonl SITE/sessions/2/timeline.jsonl
+    python benchmarks/pass_phases.py SITE          # every session of a site, in order
 
 Path is summed over the recorded poses (one per tick), so it reads a little shorter than
 the report's odometer on curves.
@@ -14,6 +15,7 @@ the report's odometer on curves.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
@@ -51,10 +53,31 @@ def phases(timeline: Path) -> dict[str, list[float]]:
     return dict(out)
 
 
+def timelines(paths: list[Path]) -> list[Path]:
+    """Each path as given, or for a site folder its sessions' timelines in session order."""
+    out: list[Path] = []
+    for path in paths:
+        if path.is_dir():
+            found = sorted(path.glob("sessions/*/timeline.jsonl"), key=lambda p: int(p.parent.name)
+                           if p.parent.name.isdigit() else 0)
+            if not found:
+                raise ValueError(f"{path}: no sessions/N/timeline.jsonl in this folder (a site?)")
+            out += found
+        elif path.is_file():
+            out.append(path)
+        else:
+            raise ValueError(f"{path}: no such timeline file or site folder")
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
-    paths = [Path(p) for p in (argv if argv is not None else sys.argv[1:])]
-    if not paths:
-        print("usage: pass_phases.py TIMELINE.jsonl [...]", file=sys.stderr)
+    ap = argparse.ArgumentParser(description="Where a monitor pass's robot time and path went, phase by phase.")
+    ap.add_argument("paths", nargs="+", type=Path, help="timeline.jsonl files, or site folders (all their sessions)")
+    args = ap.parse_args(argv)
+    try:
+        paths = timelines(args.paths)
+    except ValueError as e:
+        print(e, file=sys.stderr)
         return 2
     print(f"{'timeline':40} {'phase':26} {'path m':>8} {'robot s':>8} {'share of time':>13}")
     for path in paths:
