@@ -152,6 +152,9 @@ class RecoveryParams:
     obstacle_range: float = 4.0  # [m] scan returns nearer than this count as obstacles in the diagnosis
     on_map_distance: float = 0.2  # [m] a scan return this near a wall of the saved map lies on the map
     min_agreement: float = 0.4  # [-] share of scan returns on the map's walls below which the pose is lost; 0: off
+    # [-] and of those a share at least this large must pass through a wall or other object of the
+    # saved map: with the pose right, things new since the map stop beams short, none passes through
+    min_through: float = 0.1
     # [m] driven while waypoints failed, below which the robot is wedged; 0 (default): off, since
     # waypoints that fail at once (no plan) also leave the robot where it was
     wedged_distance: float = 0.0
@@ -168,8 +171,9 @@ class RecoveryParams:
         if not self.wedged_distance >= 0.0:
             raise ValueError(f"wedged_distance: must be >= 0, got {self.wedged_distance!r}")
         _non_negative(self, "no_progress_time", "rebuild_time")
-        if not 0.0 <= self.min_agreement <= 1.0:
-            raise ValueError(f"min_agreement: must be 0 to 1, got {self.min_agreement!r}")
+        for name in ("min_agreement", "min_through"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name}: must be 0 to 1, got {getattr(self, name)!r}")
 
 
 def _positive(params: ExplorationParams, *names: str) -> None:

@@ -94,6 +94,25 @@ def to_world(pose: Pose2D, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return pose.x + c * xy[:, 0] - s * xy[:, 1], pose.y + s * xy[:, 0] + c * xy[:, 1]
 
 
+def crosses(grid: OccupancyGrid, occupied: np.ndarray, pose: Pose2D, wx: np.ndarray, wy: np.ndarray,
+            length: np.ndarray) -> np.ndarray:
+    """Per ray from ``pose`` towards (wx, wy): a cell of ``occupied`` (a mask over ``grid``)
+    within ``length`` metres along it, sampled every half cell?"""
+    if len(wx) == 0:
+        return np.zeros(0, dtype=bool)
+    dx, dy = wx - pose.x, wy - pose.y
+    r = np.maximum(np.hypot(dx, dy), 1e-9)
+    step = 0.5 * grid.resolution
+    t = np.arange(step, max(float(length.max()), step), step)
+    px = pose.x + (dx / r)[:, None] * t[None, :]
+    py = pose.y + (dy / r)[:, None] * t[None, :]
+    rows, cols = grid.world_to_cell(px, py)
+    inside = grid.in_bounds(rows, cols) & (t[None, :] < length[:, None])
+    occ = np.zeros(rows.shape, dtype=bool)
+    occ[inside] = occupied[rows[inside], cols[inside]]
+    return occ.any(axis=1)
+
+
 class LikelihoodField:
     """Likelihood fields of one map (cached per sigma) and the scores of poses against them."""
 
@@ -109,20 +128,7 @@ class LikelihoodField:
         """Per ray from ``pose`` towards (wx, wy): an occupied cell within ``length``?
 
         ``occupied``: the cells that count (default every occupied cell of the map)."""
-        occupied = self.occupied if occupied is None else occupied
-        if len(wx) == 0:
-            return np.zeros(0, dtype=bool)
-        dx, dy = wx - pose.x, wy - pose.y
-        r = np.maximum(np.hypot(dx, dy), 1e-9)
-        step = 0.5 * self.resolution
-        t = np.arange(step, max(float(length.max()), step), step)
-        px = pose.x + (dx / r)[:, None] * t[None, :]
-        py = pose.y + (dy / r)[:, None] * t[None, :]
-        rows, cols = self.grid.world_to_cell(px, py)
-        inside = self.grid.in_bounds(rows, cols) & (t[None, :] < length[:, None])
-        occ = np.zeros(rows.shape, dtype=bool)
-        occ[inside] = occupied[rows[inside], cols[inside]]
-        return occ.any(axis=1)
+        return crosses(self.grid, self.occupied if occupied is None else occupied, pose, wx, wy, length)
 
     def walls(self, furniture_area: float) -> np.ndarray:
         """Occupied cells without the blobs of at most ``furniture_area`` m^2 (cached).

@@ -12,7 +12,9 @@ behind the recovery subtree of ``trees/recover.yaml``:
 * :func:`diagnose` finds out why, from what the robot port gives (the saved map, the
   pose, the latest scan) and the waypoints still to visit:
 
-  - ``lost``: too few scan returns lie on the map's walls at the estimated pose;
+  - ``lost``: too few scan returns lie on the map's walls at the estimated pose, and some
+    pass through what the map holds as occupied (things brought in since the map was made
+    stop beams short, off its walls; only a wrong pose sends them through its walls);
   - ``stale_obstacles``: with the map and what the lidar sees *now* (every return, those on
     the map's walls too: a wall the map drew thinner narrows a doorway), a waypoint that just
     failed is reachable, so the navigation's obstacle layer holds what is no longer there;
@@ -48,7 +50,7 @@ from bomc_bt.algorithm_params import RecoveryParams
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import LaserScan
-from bomc_bt.scan_likelihood import surface_distance, to_world, valid_beams
+from bomc_bt.scan_likelihood import crosses, surface_distance, to_world, valid_beams
 
 LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF = "lost", "stale_obstacles", "boxed_in", "cut_off"
 CAUSES = (LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF)
@@ -89,7 +91,7 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     marked = np.zeros((0, 2)) if layer is None else np.asarray(layer, float).reshape(-1, 2)
     on_map = surface_distance(grid) if len(hits) or len(marked) else None
     agreement, off_map = _agreement(grid, on_map, hits, params.on_map_distance)
-    if len(hits) and agreement < params.min_agreement:
+    if len(hits) and agreement < params.min_agreement and _through_walls(grid, pose, scan) >= params.min_through:
         return Diagnosis(LOST, f"only {agreement:.0%} of the scan returns lie on the map's walls "
                                f"at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0, _nearest(off_map, pose, 5))
     marked_off = _agreement(grid, on_map, marked, params.on_map_distance)[1]
@@ -122,6 +124,19 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     return Diagnosis(BOXED_IN, f"boxed in by {what}{where}: none of the "
                                f"{len(wanted) or len(remaining)} waypoint(s) left is reachable, "
                                f"{area:.1f} of {floor:.1f} m² of floor within reach", agreement, area, blockers)
+
+
+def _through_walls(grid: OccupancyGrid, pose: Pose2D, scan: LaserScan | None, tolerance: float = 0.1) -> float:
+    """Share of the scan's returns whose beam passes through a cell the saved map holds as
+    occupied more than ``tolerance`` before it ends."""
+    if scan is None:
+        return 0.0
+    beams = valid_beams(scan)
+    if beams.count == 0:
+        return 0.0
+    x, y = to_world(pose, beams.xy)
+    length = np.hypot(beams.xy[:, 0], beams.xy[:, 1]) - tolerance
+    return float(np.mean(crosses(grid, grid.occupied_mask(), pose, x, y, length)))
 
 
 def _hits(pose: Pose2D, scan: LaserScan | None, max_range: float) -> np.ndarray:
