@@ -14,7 +14,11 @@ in this order:
    (:func:`~bomc_bt.graph.relocations.relocation_pairs`, unless their colours tell them
    apart), then, of those left, by look (:func:`~bomc_bt.graph.looks.look_pairs`); an
    addition standing where an earlier pass saw one of its kind and look go is that object
-   brought back, never an arrival (:func:`~bomc_bt.graph.brought_back.brought_back`).
+   brought back, never an arrival (:func:`~bomc_bt.graph.brought_back.brought_back`). A node
+   the pass retracted (taken off having been matched only in the frames that confirmed it)
+   is no such removal: the map never trusted an object there (a look-alike's node, retracted
+   in pass 2 of a static office under the hard preset, was paired with a real door 8.8 m
+   away, a phantom move).
 
 Tried and not kept: a move of the pass given to a node of its kind removed in the pass
 whose old place stood nearer the arrival (the story with less motion). On generated
@@ -72,7 +76,10 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     moved there (``gone``: the nodes earlier passes removed on evidence, as they last stood:
     an addition at one's place is its return, no arrival)."""
     events = _join_parts(policy, graph, session, stamp)
-    removed = [v for v in graph.removed_this_session() if v.first_session < session]
+    # a node taken off on the sightings that confirmed it alone is retracted, not trusted: no
+    # object stood at its place to have moved from there
+    removed = [v for v in graph.removed_this_session()
+               if v.first_session < session and v.observations > policy.params.retract_observations]
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
     tolerance = policy.params.colour_tolerance
     back = brought_back(arrivals, gone, policy.params.return_radius, tolerance)
