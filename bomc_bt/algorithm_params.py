@@ -152,8 +152,9 @@ class RecoveryParams:
     obstacle_range: float = 4.0  # [m] scan returns nearer than this count as obstacles in the diagnosis
     on_map_distance: float = 0.2  # [m] a scan return this near a wall of the saved map lies on the map
     min_agreement: float = 0.4  # [-] share of scan returns on the map's walls below which the pose is lost; 0: off
-    # [-] and of those a share at least this large must pass through a wall or other object of the
-    # saved map: with the pose right, things new since the map stop beams short, none passes through
+    # [-] and at least this share of the scan's returns must pass through a cell the saved map holds
+    # as occupied (a wrong pose): with the pose right, things new since the map stop beams short and
+    # none passes through; 0: the agreement alone, as before
     min_through: float = 0.1
     # [m] driven while waypoints failed, below which the robot is wedged; 0 (default): off, since
     # waypoints that fail at once (no plan) also leave the robot where it was

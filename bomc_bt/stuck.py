@@ -91,9 +91,11 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     marked = np.zeros((0, 2)) if layer is None else np.asarray(layer, float).reshape(-1, 2)
     on_map = surface_distance(grid) if len(hits) or len(marked) else None
     agreement, off_map = _agreement(grid, on_map, hits, params.on_map_distance)
-    if len(hits) and agreement < params.min_agreement and _through_walls(grid, pose, scan) >= params.min_through:
-        return Diagnosis(LOST, f"only {agreement:.0%} of the scan returns lie on the map's walls "
-                               f"at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0, _nearest(off_map, pose, 5))
+    through = _through_walls(grid, pose, scan) if len(hits) and agreement < params.min_agreement else 0.0
+    if len(hits) and agreement < params.min_agreement and through >= params.min_through:
+        return Diagnosis(LOST, f"only {agreement:.0%} of the scan returns lie on the map's walls and {through:.0%} "
+                               f"pass through them at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0,
+                         _nearest(off_map, pose, 5))
     marked_off = _agreement(grid, on_map, marked, params.on_map_distance)[1]
     blockers = _nearest(np.concatenate([off_map, marked_off]), pose, 5)
     # Every return counts for the way open now, not only those off the map: a return within

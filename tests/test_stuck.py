@@ -144,7 +144,8 @@ def test_a_robot_hemmed_in_by_things_new_since_the_map_is_not_lost():
     assert found.agreement < PARAMS.min_agreement  # the old rule alone read this as lost
     assert found.cause != LOST
     shifted = Pose2D(ROBOT.x - 0.6, ROBOT.y, ROBOT.yaw)  # the same scan 0.6 m off: beams through the wall
-    assert diagnose(saved, shifted, scan, BEYOND, [(8.0, 2.5)], PARAMS, RADIUS).cause == LOST
+    lost = diagnose(saved, shifted, scan, BEYOND, [(8.0, 2.5)], PARAMS, RADIUS)
+    assert lost.cause == LOST and "pass through them" in lost.detail
 
 
 def test_a_robot_pressed_against_the_object_still_finds_its_own_room():
