@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.benchmark_scripts import load
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("pass_phases", ROOT / "benchmarks" / "pass_phases.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load("pass_phases")
 
 
 def _timeline(path: Path) -> Path:

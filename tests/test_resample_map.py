@@ -2,21 +2,16 @@
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 
 from bomc_bt.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid, load_map, save_map
-
-ROOT = Path(__file__).resolve().parent.parent
+from tests.benchmark_scripts import load
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("resample_map", ROOT / "benchmarks" / "resample_map.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load("resample_map")
 
 
 def _room() -> OccupancyGrid:
