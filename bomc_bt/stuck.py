@@ -54,7 +54,10 @@ from bomc_bt.scan_likelihood import crosses, surface_distance, to_world, valid_b
 
 LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF = "lost", "stale_obstacles", "boxed_in", "cut_off"
 CAUSES = (LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF)
-VISITED_STATES = ("visited", "detoured")  # a waypoint in one of these states was reached
+VISITED_STATES = ("visited", "detoured")
+# m: a beam may graze a mapped wall this near its end and still count as ending on it (a
+# wall's cell and the range noise); relocalization's ``see_through_tolerance`` default
+SEE_THROUGH_TOLERANCE = 0.1  # a waypoint in one of these states was reached
 
 
 @dataclass
@@ -91,11 +94,12 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     marked = np.zeros((0, 2)) if layer is None else np.asarray(layer, float).reshape(-1, 2)
     on_map = surface_distance(grid) if len(hits) or len(marked) else None
     agreement, off_map = _agreement(grid, on_map, hits, params.on_map_distance)
-    through = _through_walls(grid, pose, scan) if len(hits) and agreement < params.min_agreement else 0.0
-    if len(hits) and agreement < params.min_agreement and through >= params.min_through:
-        return Diagnosis(LOST, f"only {agreement:.0%} of the scan returns lie on the map's walls and {through:.0%} "
-                               f"pass through them at ({pose.x:.2f}, {pose.y:.2f})", agreement, 0.0,
-                         _nearest(off_map, pose, 5))
+    if len(hits) and agreement < params.min_agreement:
+        through = _through_walls(grid, pose, scan)
+        if through >= params.min_through:
+            return Diagnosis(LOST, f"only {agreement:.0%} of the scan returns lie on the map's walls and "
+                                   f"{through:.0%} pass through them at ({pose.x:.2f}, {pose.y:.2f})",
+                             agreement, 0.0, _nearest(off_map, pose, 5))
     marked_off = _agreement(grid, on_map, marked, params.on_map_distance)[1]
     blockers = _nearest(np.concatenate([off_map, marked_off]), pose, 5)
     # Every return counts for the way open now, not only those off the map: a return within
@@ -128,7 +132,8 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
                                f"{area:.1f} of {floor:.1f} m² of floor within reach", agreement, area, blockers)
 
 
-def _through_walls(grid: OccupancyGrid, pose: Pose2D, scan: LaserScan | None, tolerance: float = 0.1) -> float:
+def _through_walls(grid: OccupancyGrid, pose: Pose2D, scan: LaserScan | None,
+                   tolerance: float = SEE_THROUGH_TOLERANCE) -> float:
     """Share of the scan's returns whose beam passes through a cell the saved map holds as
     occupied more than ``tolerance`` before it ends."""
     if scan is None:

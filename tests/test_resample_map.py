@@ -46,3 +46,19 @@ def test_a_resolution_out_of_range_is_one_line_and_exit_2(tmp_path, capsys):
 def _save(grid: OccupancyGrid, tmp_path: Path) -> str:
     save_map(grid, tmp_path / "room.yaml")
     return str(tmp_path / "room.yaml")
+
+
+def test_the_source_map_and_an_existing_copy_are_never_overwritten_without_force(tmp_path, capsys):
+    source = _save(_room(), tmp_path)
+    before = (tmp_path / "room.pgm").read_bytes()
+    assert _module().main([source, "--resolution", "0.1", "--out", source]) == 2
+    assert _module().main([source, "--resolution", "0.1", "--out", str(tmp_path / "room.yml")]) == 2  # its PGM
+    assert (tmp_path / "room.pgm").read_bytes() == before
+    out = str(tmp_path / "coarse.yaml")
+    assert _module().main([source, "--resolution", "0.1", "--out", out]) == 0
+    assert _module().main([source, "--resolution", "0.2", "--out", out]) == 2
+    assert load_map(out).resolution == 0.1  # the first copy stands
+    assert _module().main([source, "--resolution", "0.2", "--out", out, "--force"]) == 0
+    assert load_map(out).resolution == 0.2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and "source map" in err[0] and "source map" in err[1] and "--force" in err[2]

@@ -76,10 +76,9 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     moved there (``gone``: the nodes earlier passes removed on evidence, as they last stood:
     an addition at one's place is its return, no arrival)."""
     events = _join_parts(policy, graph, session, stamp)
-    # a node taken off on the sightings that confirmed it alone is retracted, not trusted: no
-    # object stood at its place to have moved from there
+    # a retracted node was never trusted: no object stood at its place to have moved from there
     removed = [v for v in graph.removed_this_session()
-               if v.first_session < session and v.observations > policy.params.retract_observations]
+               if v.first_session < session and not policy.params.retracts(v)]
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
     tolerance = policy.params.colour_tolerance
     back = brought_back(arrivals, gone, policy.params.return_radius, tolerance)

@@ -260,6 +260,11 @@ class AssociationParams:
         """delta_c: the association distance of ``category``."""
         return self.per_category.get(category, self.default_distance)
 
+    def retracts(self, v: Node) -> bool:
+        """Whether ``v``, taken off now, is retracted rather than removed: matched in at most
+        ``retract_observations`` frames in all, so the map never trusted an object there."""
+        return v.observations <= self.retract_observations
+
     def largest_distance(self) -> float:
         """The largest delta_c of any category: the spatial index's cell size."""
         return max([self.default_distance, *self.per_category.values()])

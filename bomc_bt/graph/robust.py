@@ -280,7 +280,7 @@ class RobustPolicy:
             arrival = self._arrival(graph, v, session)
             if arrival is not None:
                 return self.moved_to(graph, v, arrival, session, stamp)
-            return [graph.remove(v, session, stamp, retracted=v.observations <= self.params.retract_observations)]
+            return [graph.remove(v, session, stamp, retracted=self.params.retracts(v))]
         return []
 
     def _arrival(self, graph: ObjectGraph, v: Node, session: int) -> Node | None:
