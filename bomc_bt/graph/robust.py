@@ -54,9 +54,10 @@ from bomc_bt.graph.association import near_any, never_looked, sighted_before
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.confusions import confused
 from bomc_bt.graph.evidence import misses_needed
-from bomc_bt.graph.extents import NodeExtents
+from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.identity import keeper
+from bomc_bt.graph.parts import longer_than_one, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation, bounded_height
 from bomc_bt.graph.tentative import TentativeSightings
 
@@ -198,10 +199,14 @@ class RobustPolicy:
         side, which a view bleeding over both covers; nor two nodes a frame of this pass or an
         earlier one matched at once (:mod:`bomc_bt.graph.co_observed`); nor two nodes an
         earlier pass kept apart that lie farther apart than one object reaches
-        (:meth:`_reach_each_other`), whichever way the view covers them.
+        (:meth:`_reach_each_other`), whichever way the view covers them; nor, with
+        ``separate_neighbours``, two whose footprints together are longer than one object of
+        their category this pass (:func:`~bomc_bt.graph.parts.longer_than_one`): a table's
+        view bled over the end of the table beside it.
         """
         events: list[Event] = []
         best: dict[int, int] = {}
+        reference: dict[str, float] | None = None  # worked out at the first fold it may refuse
         for _, vid, j in pairs:  # sorted by distance: the observation each matched node got
             if vid in matched and j not in best.values() and vid not in best:
                 best[vid] = j
@@ -218,6 +223,11 @@ class RobustPolicy:
                 if v is None or other is None or oid == vid or oid in matched or self.co_observed.seen_apart(vid, oid) \
                         or self.extents.separate(graph, other, o) or self.extents.apart(v, other, before[vid][0]):
                     continue
+                if self.params.separate_neighbours:
+                    reference = self._reference(graph, session) if reference is None else reference
+                    if longer_than_one(v, other, reference, self.params.distance, BIG_MARGIN,
+                                       self.params.footprint_touch):
+                        continue
                 keep, drop = keeper(v, other, session)
                 total = max(keep.observations + drop.observations, 1)
                 graph.relocate(keep, (keep.position * keep.observations + drop.position * drop.observations) / total)
@@ -228,6 +238,11 @@ class RobustPolicy:
                 events.append(graph.report("updated", keep, session, stamp))
                 matched.add(keep.id)
         return events
+
+    def _reference(self, graph: ObjectGraph, session: int) -> dict[str, float]:
+        """How long one object of each category is, by this pass's views (as when the pass ends)."""
+        seen = [v for v in graph.nodes.values() if v.last_session == session]
+        return reference_lengths(seen, self.extents.longest_whole(graph), self.params.distance, BIG_MARGIN)
 
     def _hidden_beside(self, graph: ObjectGraph, v: Node, stood: np.ndarray, o: Observation, hidden: set[int],
                        session: int) -> set[int]:
