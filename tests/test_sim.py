@@ -192,7 +192,7 @@ def test_goal_inside_an_obstacle_is_blocked():
     handle = robot.navigate(Pose2D(6.0, 0.95))
     assert run_until_done(robot, handle, robot.now() + 120.0) is Status.BLOCKED
     # Seen only from the front, the box's centre may look free: then no progress says it.
-    assert "inside an obstacle" in handle.message or "no progress" in handle.message
+    assert any(m in handle.message for m in ("inside an obstacle", "no progress", "no plan"))
     assert robot.true_pose.distance_to(Pose2D(6.0, 0.95)) > 0.5 + 0.2  # never drove into it
     wall = robot.navigate(Pose2D(6.0, 3.0))  # inside the map's wall block: known at once
     assert wall.status() is Status.BLOCKED and "inside an obstacle" in wall.message
@@ -213,6 +213,7 @@ def test_blocked_corridor_without_way_round_times_out_on_the_sim_clock():
                        sessions={2: Change(obstacles=[Obstacle((6.0, 1.0), (0.4, 2.0), 1.0)])})
     params = SimParams()
     params.motion.progress_timeout = 10.0
+    params.motion.plan_patience = 10.0  # as long: the progress timeout says it
     robot = SimRobot(world, 2, params, seed=0, mode="monitor")
     localize(robot, world.grid, world.start)
     start = robot.now()
@@ -221,6 +222,27 @@ def test_blocked_corridor_without_way_round_times_out_on_the_sim_clock():
     assert "no progress" in handle.message
     assert robot.now() - start >= 10.0
     assert robot.true_pose.x < 6.0 - 0.2
+
+
+def test_a_robot_with_no_plan_from_where_it_stands_gives_up_after_the_plan_patience():
+    """A corridor blocked wall to wall: once the lidar shows the block there is no plan at all
+    (nor a squeeze), and waiting out the whole progress timeout is time lost (move_base gives
+    up after its planner_patience): the goal is BLOCKED plan_patience after the plan went."""
+    data = room_data(12.0, 2.0)
+    world = make_world(data, Pose2D(1.0, 1.0, 0.0),
+                       sessions={2: Change(obstacles=[Obstacle((6.0, 1.0), (0.4, 2.0), 1.0)])})
+    ended = {}
+    for patience in (5.0, 15.0):
+        params = SimParams()
+        params.motion.plan_patience = patience
+        robot = SimRobot(world, 2, params, seed=0, mode="monitor")
+        localize(robot, world.grid, world.start)
+        handle = robot.navigate(Pose2D(11.0, 1.0))
+        assert run_until_done(robot, handle, robot.now() + 200.0) is Status.BLOCKED
+        assert robot.true_pose.x < 6.0 - 0.2
+        ended[patience] = (robot.now(), handle.message)
+    assert ended[5.0][1] == "no plan for 5 s", ended
+    assert ended[5.0][0] <= ended[15.0][0] - 9.0, ended  # gave up 10 s sooner (the clock's steps aside)
 
 
 def test_no_path_at_all_fails_and_new_goal_cancels_old():

@@ -13,7 +13,12 @@ Status rules (what a behaviour sees):
 * BLOCKED: the goal is inside an obstacle (no traversable cell within the tolerance, in
   the obstacle-aware map), or the robot made no progress along its plan for
   ``progress_timeout`` seconds of sim time (a blocked corridor with no way around, a
-  person who will not move, an obstacle the lidar cannot see).
+  person who will not move, an obstacle the lidar cannot see), or, on a saved map, had no
+  plan at all from where it stands for ``plan_patience`` seconds (move_base's
+  ``planner_patience``). A monitor pass's robot hemmed in by furniture new since the map
+  (a small house at 0.1 m with 25 objects, generated world seed 8553, pass 6) waited out the
+  whole progress timeout at every goal and detour: 15 s each, about 60 s per waypoint,
+  22 waypoints, before the stuck diagnosis ended the pass.
 * CANCELLED: a new goal or :meth:`cancel` pre-empted it.
 
 Squeezing: when the live planner has no path, the navigator tries the ``squeeze`` planner
@@ -76,6 +81,8 @@ class Navigator:
         self._stuck_since: float | None = None
         self._backup_until = -math.inf
         self._at_position = False
+        self._no_plan_since: float | None = None  # sim time the robot began waiting with no plan
+        self.plan_patience: float | None = None  # s (set by the robot on a saved map); None: none
         self.squeeze: SqueezeSource | None = None  # the last-resort planner (set by the robot)
 
     # -- goals ---------------------------------------------------------------------------
@@ -92,6 +99,7 @@ class Navigator:
         self._last_progress = now
         self._marks = np.array([[now, pose.x, pose.y]])
         self._fail_at = math.inf
+        self._no_plan_since = None
         current = planner(pose.xy, goal.xy)
         if current.nearest_traversable(goal.xy, self.goal_tolerance) is None:
             handle.finish(Status.BLOCKED, "goal is inside an obstacle")
@@ -105,6 +113,7 @@ class Navigator:
                 handle.finish(Status.FAILED, "no path to the goal")
                 return handle
             handle._message = "waiting: the way is blocked by obstacles"
+            self._no_plan_since = now
         else:
             self._set_path(path)
         self._next_check = now + self.params.replan_period
@@ -150,11 +159,15 @@ class Navigator:
                 return self._end(Status.SUCCEEDED, "goal reached")
             return 0.0, math.copysign(min(p.max_turn_rate, max(0.3, p.heading_gain * abs(err))), err)
         if now >= self._next_check:
-            result = self._check_path(pose, planner, path_clear, stuck)
+            result = self._check_path(pose, planner, path_clear, stuck, now)
             if result is not None:
                 return result
             self._next_check = now + (p.blocked_replan_period if stuck or self.path is None
                                       else p.replan_period)
+        patience = self.plan_patience
+        if patience is not None and self.path is None and self._no_plan_since is not None \
+                and now - self._no_plan_since >= patience:
+            return self._end(Status.BLOCKED, f"no plan for {patience:g} s")
         if self._made_progress(pose, now):
             self._last_progress = now
         if now - self._last_progress >= p.progress_timeout:
@@ -221,7 +234,7 @@ class Navigator:
         return 0.0, 0.0
 
     def _check_path(self, pose: Pose2D, planner: GoalPlannerSource, path_clear: PathCheck,
-                    stuck: bool) -> tuple[float, float] | None:
+                    stuck: bool, now: float) -> tuple[float, float] | None:
         """Replan when the current path is no longer clear, there is none, or we are stuck."""
         assert self.handle is not None
         if self.path is not None and not stuck and path_clear(self._ahead(pose), self.params.body_radius):
@@ -246,9 +259,12 @@ class Navigator:
             self.path = None
             self.handle._message = "waiting: the way is blocked by obstacles"
             self._best = math.inf
+            self._no_plan_since = now if self._no_plan_since is None else self._no_plan_since
+            return None
         else:
             self._set_path(path)
             self._best = path_length(path)
+        self._no_plan_since = None
         return None
 
     def _squeeze_plan(self, pose: Pose2D, goal: Pose2D) -> np.ndarray | None:

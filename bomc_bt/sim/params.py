@@ -73,6 +73,11 @@ class MotionParams:
     max_turn_rate_deg: float = 57.29577951308232  # [deg/s] turn rate limit (1.0 rad/s exactly)
     max_turn_rate = Radians()
     progress_timeout: float = 15.0  # [s] sim time without progress along the plan before a goal is BLOCKED
+    # [s] on a saved map (monitor passes): sim time with no plan at all from where the robot
+    # stands (neither the live planner's nor a squeeze) before a goal is BLOCKED (move_base's
+    # planner_patience); at least progress_timeout: the progress timeout says it, as before.
+    # While building, only the progress timeout (not measured there)
+    plan_patience: float = 5.0
     progress_step: float = 0.1  # [m] shortening of the remaining path that counts as progress
     replan_period: float = 2.0  # [s] between path checks (replan when the path is no longer clear)
     blocked_replan_period: float = 0.5  # [s] between replans while the robot cannot move
@@ -93,6 +98,8 @@ class MotionParams:
     def __post_init__(self) -> None:
         if self.max_speed <= 0 or self.max_turn_rate_deg <= 0 or self.progress_timeout <= 0:
             raise ValueError("max_speed, max_turn_rate_deg and progress_timeout must be > 0")
+        if self.plan_patience <= 0:
+            raise ValueError("plan_patience must be > 0")
         if self.replan_period <= 0 or self.lookahead <= 0 or self.body_radius <= 0:
             raise ValueError("replan_period, lookahead and body_radius must be > 0")
 

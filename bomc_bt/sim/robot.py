@@ -92,6 +92,7 @@ class SimRobot:
         self.distance_travelled = 0.0
         self.navigator = Navigator(p.motion, p.planner.goal_tolerance, self._nav_rng,
                                    p.faults.nav_failure_probability)
+        self.navigator.plan_patience = p.motion.plan_patience if mode == "monitor" else None
         self._stuck = False
         self._resumed_navigation: NavHandle | None = None  # the goal in flight when a pass was restored
         # Maps and localization.
