@@ -54,10 +54,10 @@ from bomc_bt.scan_likelihood import crosses, surface_distance, to_world, valid_b
 
 LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF = "lost", "stale_obstacles", "boxed_in", "cut_off"
 CAUSES = (LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF)
-VISITED_STATES = ("visited", "detoured")
+VISITED_STATES = ("visited", "detoured")  # a waypoint in one of these states was reached
 # m: a beam may graze a mapped wall this near its end and still count as ending on it (a
 # wall's cell and the range noise); relocalization's ``see_through_tolerance`` default
-SEE_THROUGH_TOLERANCE = 0.1  # a waypoint in one of these states was reached
+SEE_THROUGH_TOLERANCE = 0.1
 
 
 @dataclass
