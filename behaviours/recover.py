@@ -5,9 +5,10 @@ whether the pass is still getting somewhere; when waypoint after waypoint failed
 the trigger (``stuck``) and fails, and the tree runs the recovery: ``DiagnoseStuck`` finds
 out why (:func:`bomc_bt.stuck.diagnose`, written to ``stuck_cause``), ``StuckCauseIs``
 picks the branch that acts on it (``BackOutGoal`` + ``NavigateTo``, ``ClearObstacles``,
-``Relocalize``), and ``EndPassEarly`` ends the pass with the diagnosis when rounds with
+``RefreshMap``, ``Relocalize``), and ``EndPassEarly`` ends the pass with the diagnosis when rounds with
 no waypoint reached in between are used up. Thresholds are the configuration's
-``recovery`` section.
+``recovery`` section. ``WatchFloor`` runs beside the traversal the whole pass, keeping the
+floor the lidar sees where the saved map holds furniture, for the ``stale_map`` diagnosis.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from py_trees.common import Status
 from bomc_bt.geometry import Pose2D
 from bomc_bt.monitor_pass import give_up, save_pass
 from bomc_bt.monitoring import MISSED, PENDING
+from bomc_bt.stale_map import FloorSeen, with_floor
 from bomc_bt.stuck import CAUSES, CUT_OFF, LOST, StuckWatch, diagnose, diagnosis_line
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
@@ -93,9 +95,10 @@ class DiagnoseStuck(Leaf):
         layer = ctx.robot.obstacle_layer() if watch.cleared_in_spell() else None
         watch.start_round(ctx.now(), self.get("stuck") or "stuck")
         moved = watch.moved_since_first_miss(ctx.robot.distance_travelled)
+        floor = ctx.floor.cells() if ctx.floor is not None else None
         found = diagnose(ctx.robot.live_map(), ctx.robot.pose(), ctx.robot.scan(), failed,
                          [_xy(state.waypoint(i)) for i in left], ctx.config.recovery,
-                         ctx.config.sim.planner.robot_radius, moved, layer)
+                         ctx.config.sim.planner.robot_radius, moved, layer, floor)
         found = replace(found, cut_off=[left[k] for k in found.cut_off])  # waypoint indices from here on
         watch.log[-1].cause, watch.log[-1].detail = found.cause, found.detail
         self.set("stuck_cause", found)
@@ -116,7 +119,7 @@ def _xy(p: Pose2D) -> tuple[float, float]:
 
 @dataclass
 class StuckCauseIsParams:
-    cause: str = CUT_OFF  # [choice] lost | stale_obstacles | boxed_in | cut_off
+    cause: str = CUT_OFF  # [choice] lost | stale_obstacles | stale_map | boxed_in | cut_off
 
     def __post_init__(self) -> None:
         if self.cause not in CAUSES:
@@ -185,6 +188,60 @@ class ClearObstacles(Leaf):
             return Status.RUNNING
         self.feedback_message = "obstacle layer rebuilt"
         return Status.SUCCESS
+
+
+@register("RefreshMap")
+class RefreshMap(Leaf):
+    """Hands the robot the map in use with the floor the diagnosis (``stuck_cause``) found
+    where the map holds furniture cleared (``RobotPort.refresh_map``): the waypoints from
+    here on plan on it. The saved map does not change. Always succeeds."""
+
+    reads = ("stuck_cause",)
+
+    def update(self) -> Status:
+        ctx = self.context
+        found = self.get("stuck_cause")
+        grid = ctx.robot.live_map()
+        ctx.robot.refresh_map(with_floor(grid, found.floor))
+        area = len(found.floor) * grid.resolution ** 2
+        watch_of(ctx).act("refresh_map", f"navigating on the map with {area:.1f} m² of floor cleared")
+        self.feedback_message = f"map refreshed: {area:.1f} m² of floor where furniture stood at the build"
+        return Status.SUCCESS
+
+
+@dataclass
+class WatchFloorParams:
+    period: float = 1.0  # [s] robot time between scans folded in
+    furniture_area: float = 2.0  # [m2] occupied blobs of the map this small are furniture; 0: off
+    max_range: float = 6.0  # [m] scans count as seeing floor this far
+    min_seen: int = 2  # [count] scans that must see a cell as floor
+
+
+@register("WatchFloor")
+class WatchFloor(Leaf):
+    """Every ``period`` s of robot time, folds the latest scan into the floor seen this pass
+    (``ctx.floor``, :class:`bomc_bt.stale_map.FloorSeen`, made on the map in use at the first
+    localized tick). Runs beside the traversal; never finishes."""
+
+    Params = WatchFloorParams
+    config_params = {"period": "recovery.floor_period", "furniture_area": "recovery.stale_furniture_area",
+                     "max_range": "recovery.floor_range", "min_seen": "recovery.floor_min_seen"}
+
+    def initialise(self) -> None:
+        self.next_at = -math.inf
+
+    def update(self) -> Status:
+        ctx = self.context
+        pose = ctx.robot.pose()
+        p = self.params
+        if pose is None or p.furniture_area <= 0 or ctx.now() < self.next_at:
+            return Status.RUNNING
+        if ctx.floor is None:
+            ctx.floor = FloorSeen(ctx.robot.live_map(), p.furniture_area, p.max_range, p.min_seen)
+        self.next_at = ctx.now() + p.period
+        ctx.floor.add(pose, ctx.robot.scan())
+        self.feedback_message = f"{ctx.floor.scans} scan(s) folded in"
+        return Status.RUNNING
 
 
 @dataclass

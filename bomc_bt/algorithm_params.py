@@ -161,17 +161,24 @@ class RecoveryParams:
     wedged_distance: float = 0.0
     backout_distance: float = 1.5  # [m] how far back along the path driven a back-out goes
     rebuild_time: float = 2.0  # [s] robot time to let the lidar refill a cleared obstacle layer
+    # [m2] occupied blobs of the saved map this small are furniture: where the lidar sees floor
+    # through them (or through unknown map) a stuck pass may navigate on the map with it
+    # cleared (bomc_bt.stale_map); 0: never
+    stale_furniture_area: float = 2.0
+    floor_range: float = 6.0  # [m] scans count as seeing floor this far from the robot
+    floor_min_seen: int = 2  # [count] scans that must see a cell as floor before it counts
+    floor_period: float = 1.0  # [s] robot time between scans folded into the floor seen
 
     def __post_init__(self) -> None:
-        for name in ("max_missed", "max_rounds"):
+        for name in ("max_missed", "max_rounds", "floor_min_seen"):
             value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or value < (1 if name == "max_rounds" else 0):
-                raise ValueError(f"{name}: must be a whole number >= {1 if name == 'max_rounds' else 0}, "
-                                 f"got {value!r}")
-        _positive(self, "obstacle_range", "on_map_distance", "backout_distance")
+            least = 0 if name == "max_missed" else 1
+            if isinstance(value, bool) or int(value) != value or value < least:
+                raise ValueError(f"{name}: must be a whole number >= {least}, got {value!r}")
+        _positive(self, "obstacle_range", "on_map_distance", "backout_distance", "floor_range", "floor_period")
         if not self.wedged_distance >= 0.0:
             raise ValueError(f"wedged_distance: must be >= 0, got {self.wedged_distance!r}")
-        _non_negative(self, "no_progress_time", "rebuild_time")
+        _non_negative(self, "no_progress_time", "rebuild_time", "stale_furniture_area")
         for name in ("min_agreement", "min_through"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name}: must be 0 to 1, got {getattr(self, name)!r}")

@@ -29,6 +29,7 @@ if TYPE_CHECKING:  # annotations only: a context does not import the planners an
     from bomc_bt.graph import ObjectGraph
     from bomc_bt.monitoring import Perception, TraversalState
     from bomc_bt.planner import GridPlanner
+    from bomc_bt.stale_map import FloorSeen
     from bomc_bt.store import SiteStore
     from bomc_bt.stuck import StuckWatch
     from bomc_bt.traversal import TraversalPlan
@@ -72,6 +73,7 @@ class MissionContext:
     trail: Trail = field(default_factory=Trail)  # the way the robot drove in (NavigateTo adds; a back-out follows)
     budget: PassBudget | None = None  # a pass with a budget of robot time (bomc_bt.budget_pass); None: full
     watch: StuckWatch | None = None  # missed waypoints in a row and the recovery log (behaviours/recover.py)
+    floor: FloorSeen | None = None  # floor the lidar saw this pass where the map holds furniture (WatchFloor)
     outcome: str = ""
     reason: str = ""
 

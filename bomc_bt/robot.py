@@ -140,6 +140,11 @@ class RobotPort(Protocol):
     def use_map(self, grid: OccupancyGrid) -> None:
         """Navigate and localize in this saved map from now on (monitor mission)."""
 
+    def refresh_map(self, grid: OccupancyGrid) -> None:
+        """Navigate on ``grid`` from now on: the map in use with floor the lidar saw where it
+        holds furniture cleared (:mod:`bomc_bt.stale_map`). A stuck pass does this when a
+        table gone since the build hems the robot in; the saved map does not change."""
+
     def scan(self) -> LaserScan | None:
         """Latest laser scan."""
 

@@ -22,6 +22,10 @@ behind the recovery subtree of ``trees/recover.yaml``:
     that the map does not have, though the map alone has a way: the robot is shut in; or
     the robot has not moved while the waypoints failed (wedged: the way looks open, but
     every goal fails where it stands);
+  - ``stale_map``: they are unreachable as the map draws the building, but the lidar saw
+    floor this pass where the map holds furniture (:class:`bomc_bt.stale_map.FloorSeen`),
+    and with those cells cleared a waypoint that failed, or more of those left, are
+    reachable: the robot is hemmed in by a table that has gone since the build;
   - ``cut_off``: the failed waypoints lie behind such objects, but others are reachable:
     the robot is fine, those waypoints are blocked, the pass carries on. When the objects
     are obstacles seen again after a clear (below), it gives up on every waypoint behind
@@ -33,14 +37,15 @@ behind the recovery subtree of ``trees/recover.yaml``:
   round a corner), so the waypoints behind it are cut off, not failed for a stale layer.
 
 The tree acts on the cause (back out along :class:`bomc_bt.trail.Trail`, clear the
-obstacle layer, relocalize) and, after ``max_rounds`` rounds with no waypoint reached in
-between, ends the pass early with the diagnosis (:func:`diagnosis_line`) in the report.
+obstacle layer, navigate on the map with the floor seen cleared, relocalize) and, after
+``max_rounds`` rounds with no waypoint reached in between, ends the pass early with the
+diagnosis (:func:`diagnosis_line`) in the report.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import cv2
@@ -51,9 +56,11 @@ from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.robot import LaserScan
 from bomc_bt.scan_likelihood import crosses, surface_distance, to_world, valid_beams
+from bomc_bt.stale_map import with_floor
 
 LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF = "lost", "stale_obstacles", "boxed_in", "cut_off"
-CAUSES = (LOST, STALE_OBSTACLES, BOXED_IN, CUT_OFF)
+STALE_MAP = "stale_map"
+CAUSES = (LOST, STALE_OBSTACLES, STALE_MAP, BOXED_IN, CUT_OFF)
 VISITED_STATES = ("visited", "detoured")  # a waypoint in one of these states was reached
 # m: a beam may graze a mapped wall this near its end and still count as ending on it (a
 # wall's cell and the range noise); relocalization's ``see_through_tolerance`` default
@@ -71,6 +78,8 @@ class Diagnosis:
     blockers: list[tuple[float, float]] = field(default_factory=list)  # scan returns off the map, nearest first
     # cut_off from a layer seen again after a clear: the remaining waypoints (indices) behind the obstacles
     cut_off: list[int] = field(default_factory=list)
+    # stale_map: (K, 2) rows and columns of the map to navigate on as floor
+    floor: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
 
     def __str__(self) -> str:
         return f"{self.cause}: {self.detail}"
@@ -79,7 +88,7 @@ class Diagnosis:
 def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
              failed: Sequence[tuple[float, float]], remaining: Sequence[tuple[float, float]],
              params: RecoveryParams, robot_radius: float, moved: float | None = None,
-             layer: np.ndarray | None = None) -> Diagnosis:
+             layer: np.ndarray | None = None, floor: np.ndarray | None = None) -> Diagnosis:
     """Why waypoints ``failed`` in a row, given the ``remaining`` ones (see the module docstring).
 
     ``robot_radius`` is the planner's: a way must keep that far from every obstacle.
@@ -87,6 +96,8 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     ``layer``: (N, 2) cells the navigation's obstacle layer marks, given once the layer was
     cleared in this spell and rebuilt since: what the lidar saw again after a clear is there,
     though out of the current scan's sight (a table round a corner). None: the scan alone.
+    ``floor``: (K, 2) rows and columns of map cells the lidar saw as floor this pass where the
+    map holds furniture or unknown (:class:`bomc_bt.stale_map.FloorSeen`). None: not looked at.
     """
     if pose is None:
         return Diagnosis(LOST, "the robot is not localized", 0.0, 0.0)
@@ -118,6 +129,9 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
         return Diagnosis(STALE_OBSTACLES, "the map and the lidar show a way to the waypoints that failed; the "
                                           "navigation's obstacle layer holds obstacles that are gone",
                          agreement, area, blockers)
+    stale = _stale_map(grid, pose, floor, failed, remaining, np.concatenate([hits, marked]), now, robot_radius)
+    if stale is not None:
+        return replace(stale, agreement=agreement, reachable_area_m2=area, blockers=blockers)
     wanted = [k for k, xy in enumerate(remaining) if _inside(grid, on_map_only, xy)]
     behind = [k for k in wanted if not _inside(grid, now, remaining[k])]
     if len(behind) < len(wanted):
@@ -130,6 +144,25 @@ def diagnose(grid: OccupancyGrid, pose: Pose2D | None, scan: LaserScan | None,
     return Diagnosis(BOXED_IN, f"boxed in by {what}{where}: none of the "
                                f"{len(wanted) or len(remaining)} waypoint(s) left is reachable, "
                                f"{area:.1f} of {floor:.1f} m² of floor within reach", agreement, area, blockers)
+
+
+def _stale_map(grid: OccupancyGrid, pose: Pose2D, floor: np.ndarray | None, failed: Sequence[tuple[float, float]],
+               remaining: Sequence[tuple[float, float]], obstacles: np.ndarray, now: np.ndarray,
+               robot_radius: float) -> Diagnosis | None:
+    """``stale_map`` when the map with ``floor`` cleared lets the robot reach a waypoint that
+    failed, or more of those left, than the map as saved (see the module docstring)."""
+    if floor is None or not len(floor):
+        return None
+    opened = reachable_from(with_floor(grid, floor), pose, obstacles, robot_radius)
+    reached = sum(_inside(grid, opened, xy) for xy in failed)
+    gained = sum(_inside(grid, opened, xy) for xy in remaining) - sum(_inside(grid, now, xy) for xy in remaining)
+    if not reached and gained <= 0:
+        return None
+    seen = len(floor) * grid.resolution ** 2
+    return Diagnosis(STALE_MAP, f"the lidar saw floor where the map holds furniture ({seen:.1f} m²); with it "
+                                f"cleared {reached} of the {len(failed)} waypoint(s) that failed and "
+                                f"{max(gained, 0)} more of the {len(remaining)} left are reachable", 0.0, 0.0,
+                     floor=np.asarray(floor, dtype=np.int64))
 
 
 def _through_walls(grid: OccupancyGrid, pose: Pose2D, scan: LaserScan | None,

@@ -25,6 +25,9 @@ class RosParams:
     lockstep_wait: float = 10.0
     # -- maps, scans, localization -------------------------------------------------------
     map_topic: str = "/map"  # [text] the map (nav_msgs/OccupancyGrid)
+    # [text] where a stuck pass publishes the map with floor the lidar saw where furniture stood
+    # at the build cleared (latched; move_base's static layer reads /map); "" never publishes
+    refreshed_map_topic: str = "/map"
     scan_topic: str = "/base_scan"  # [text] the base laser (sensor_msgs/LaserScan)
     map_frame: str = "map"  # [text] tf frame of the map
     odom_frame: str = "odom"  # [text] tf frame of odometry

@@ -39,6 +39,7 @@ from bomc_bt.ros.convert import (
 )
 from bomc_bt.ros.costmap import GlobalCostmap
 from bomc_bt.ros.lockstep import LockstepClient
+from bomc_bt.ros.map_refresh import MapRefresh
 from bomc_bt.ros.move_base import MoveBaseClient, NavGoal
 from bomc_bt.ros.node import check_master, ensure_node
 from bomc_bt.ros.params import RosParams
@@ -105,6 +106,7 @@ class RosRobot:
             p.initialpose_topic, PoseWithCovarianceStamped, queue_size=1, latch=True
         )
         self.move_base = MoveBaseClient(rospy, p, on_result=self.lockstep.notify)
+        self.map_refresh = MapRefresh(rospy, p)
         self._wait_for_start()
         self._last_tick = self.now()
         self.distance_travelled = 0.0  # m along odom -> base_link (the session report's path length)
@@ -116,17 +118,13 @@ class RosRobot:
         p = self.params
         if self.use_sim_time and not self.lockstep.clock_seen.wait(p.clock_timeout):
             self.close()
-            raise MissionFailed(
-                f"use_sim_time is set but nothing publishes /clock (waited {p.clock_timeout:.0f} s)"
-            )
+            raise MissionFailed(f"use_sim_time is set but nothing publishes /clock (waited {p.clock_timeout:.0f} s)")
         deadline = time.monotonic() + p.server_timeout
         while not self.move_base.ready():  # on the wall clock: ROS time may wait for the first tick
             if time.monotonic() > deadline:
                 self.close()
-                raise MissionFailed(
-                    f"no move_base action server at {p.move_base_action!r} within "
-                    f"{p.server_timeout:.0f} s (ros.move_base_action)"
-                )
+                raise MissionFailed(f"no move_base action server at {p.move_base_action!r} within "
+                                    f"{p.server_timeout:.0f} s (ros.move_base_action)")
             time.sleep(0.02)
         self.lockstep.wait_for_bridge(self._all_subs(), self.now(), self.counts, self.move_base.awaits_result)
 
@@ -143,6 +141,7 @@ class RosRobot:
         self.initialpose_pub.unregister()
         self.lockstep.close()
         self.move_base.close()
+        self.map_refresh.close()
 
     # -- callbacks -------------------------------------------------------------------------
     def _keep(self, attr: str):
@@ -257,6 +256,11 @@ class RosRobot:
         waypoints, reports).
         """
         self._grid = grid
+
+    def refresh_map(self, grid: OccupancyGrid) -> None:
+        """Navigate on ``grid``: published where move_base reads its map (:mod:`bomc_bt.ros.map_refresh`)."""
+        self._grid = grid
+        self.map_refresh.publish(grid)
 
     def scan(self) -> LaserScan | None:
         with self._lock:

@@ -159,6 +159,14 @@ class SimRobot:
         self.planners.use_map(grid, self._obstacles)
         self._matchers.clear()
 
+    def refresh_map(self, grid: OccupancyGrid) -> None:
+        """Navigate and localize on ``grid`` from now on; the obstacle layer keeps its marks."""
+        if self._obstacles is None:
+            return self.use_map(grid)
+        self._map = grid
+        self.planners.use_map(grid, self._obstacles)
+        self._matchers.clear()
+
     # -- port: stepping --------------------------------------------------------------------
     def step(self) -> None:
         p = self.params

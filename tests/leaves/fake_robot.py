@@ -43,6 +43,7 @@ class FakeRobot:
         self.frames: list[RGBDFrame] = []
         self.cancelled_all = False
         self.costmap_clears = 0
+        self.refreshed_maps = 0
         self.latest_scan: LaserScan | None = None
         self.layer = np.zeros((0, 2))  # the obstacle layer's marked cells (map frame); a clear empties it
 
@@ -71,6 +72,10 @@ class FakeRobot:
 
     def use_map(self, grid: OccupancyGrid) -> None:
         self.grid = grid
+
+    def refresh_map(self, grid: OccupancyGrid) -> None:
+        self.grid = grid
+        self.refreshed_maps += 1
 
     def scan(self) -> LaserScan | None:
         return self.latest_scan
