@@ -95,8 +95,10 @@ class DiagnoseStuck(Leaf):
         layer = ctx.robot.obstacle_layer() if watch.cleared_in_spell() else None
         watch.start_round(ctx.now(), self.get("stuck") or "stuck")
         moved = watch.moved_since_first_miss(ctx.robot.distance_travelled)
-        floor = ctx.floor.cells() if ctx.floor is not None else None
-        found = diagnose(ctx.robot.live_map(), ctx.robot.pose(), ctx.robot.scan(), failed,
+        grid = ctx.robot.live_map()
+        same_map = ctx.floor is not None and ctx.floor.grid.data.shape == grid.data.shape  # ROS: /map may change
+        floor = ctx.floor.cells() if same_map else None
+        found = diagnose(grid, ctx.robot.pose(), ctx.robot.scan(), failed,
                          [_xy(state.waypoint(i)) for i in left], ctx.config.recovery,
                          ctx.config.sim.planner.robot_radius, moved, layer, floor)
         found = replace(found, cut_off=[left[k] for k in found.cut_off])  # waypoint indices from here on

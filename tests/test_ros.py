@@ -608,3 +608,34 @@ def test_the_obstacle_layer_is_move_base_s_global_costmap(bridge):
         assert len(robot.obstacle_layer()) >= on_walls.sum()  # marked again since the clear
     finally:
         robot.close()
+
+
+def test_a_refreshed_map_reaches_move_base_s_static_layer(bridge):
+    """A pass hemmed in by a table gone since the build navigates on the map with the floor
+    the lidar saw cleared (bomc_bt.stale_map): over ROS the robot port publishes it on /map,
+    latched, where move_base's static layer takes new maps; the sim-over-ROS bridge does as
+    move_base would, and its global costmap no longer holds the cells cleared."""
+    from bomc_bt.grid import load_map
+    from bomc_bt.stale_map import with_floor
+
+    saved = load_map(WORLD.parent / "lab-b-map.yaml")
+    bridge("--mode", "monitor", "--map", str(WORLD.parent / "lab-b-map.yaml"))
+    robot = _robot("monitor")
+    try:
+        _localize(robot)
+        pose = robot.pose()
+        cells = np.argwhere(saved.data == 100)
+        x, y = saved.cell_to_world(cells[:, 0], cells[:, 1])
+        far = cells[np.hypot(x - pose.x, y - pose.y) > 6.0]  # out of the lidar's obstacle range
+        assert len(far) > 20
+        robot.refresh_map(with_floor(saved, far))
+        assert robot.map_refresh.published == 1
+        for _ in range(20):  # 2 s: the bridge publishes a changed costmap at most every second
+            robot.step()
+        assert not robot.live_map().occupied_mask()[far[:, 0], far[:, 1]].any()  # /map is the refreshed map
+        lethal = robot.obstacle_layer()
+        rows, cols = saved.world_to_cell(lethal[:, 0], lethal[:, 1])
+        still = {(int(r), int(c)) for r, c in zip(rows, cols, strict=True)} & {(int(r), int(c)) for r, c in far}
+        assert not still and len(lethal) > 0  # move_base plans on it: the far walls are gone
+    finally:
+        robot.close()

@@ -1,7 +1,8 @@
 """The sim bridge's serving loop: move_base, AMCL's inputs, and the lockstep stepping.
 
 :class:`SimBridge` answers what a Fetch with AMCL and move_base answers (the ``move_base``
-action, ``/initialpose``, ``/global_localization``, ``/request_nomotion_update``) from a
+action, ``/initialpose``, ``/global_localization``, ``/request_nomotion_update``, and while
+monitoring a new map on ``/map`` that move_base's static layer would take) from a
 :class:`~bomc_bt.sim.robot.SimRobot`, and publishes its state through a
 :class:`~bomc_bt.ros.bridge_publish.SimStatePublisher`.
 
@@ -27,7 +28,7 @@ import numpy as np
 from bomc_bt.robot import Status
 from bomc_bt.ros import import_ros
 from bomc_bt.ros.bridge_publish import SimStatePublisher
-from bomc_bt.ros.convert import pose2d_from_msg
+from bomc_bt.ros.convert import decimal_resolution, grid_from_msg, pose2d_from_msg
 from bomc_bt.ros.params import RosParams
 
 LOCALIZED_STD = (0.05, 0.03)  # m, rad: the covariance /amcl_pose reports once localized
@@ -97,6 +98,11 @@ class SimBridge:
             ),
             rospy.Subscriber(params.tick_topic, String, self._on_tick, queue_size=10),
         ]
+        if map_grid is not None:  # monitor: a stuck pass may publish a refreshed map (bomc_bt.ros.map_refresh)
+            from nav_msgs.msg import OccupancyGrid as GridMsg
+            from rospy.numpy_msg import numpy_msg
+
+            self.subs.append(rospy.Subscriber(params.map_topic, numpy_msg(GridMsg), self._on_map, queue_size=1))
         self.server.start()
         if map_grid is not None:
             self.out.publish_map(map_grid)
@@ -142,6 +148,14 @@ class SimBridge:
 
     def _apply_clear_costmaps(self, _item: Any) -> None:
         self.sim.clear_costmaps()
+
+    def _on_map(self, msg: Any) -> None:
+        if msg._connection_header.get("callerid") != self.rospy.get_name():  # not the map it serves itself
+            self._queue("map", msg)
+
+    def _apply_map(self, msg: Any) -> None:
+        """A new map on /map: navigate on it, as move_base's static layer would."""
+        self.sim.refresh_map(decimal_resolution(grid_from_msg(msg)))
 
     def _drain(self) -> None:
         """Apply what the callbacks queued, in arrival order."""

@@ -6,7 +6,9 @@ lidar saw from the map in use (:mod:`bomc_bt.stale_map`) and hands it to the por
 published, latched, on ``refreshed_map_topic`` (default ``/map``): move_base's static layer
 takes every new map on its topic, while AMCL keeps the map it asked map_server for (unless
 its ``use_map_topic`` is set). The publisher is made on the first refresh, so a pass that
-never needs one never publishes on map_server's topic. "" turns it off.
+never needs one never publishes on map_server's topic. "" turns it off. The sim-over-ROS
+bridge navigates on the map it receives there when it arrives (outside the lockstep's
+counts: a step later, at most).
 """
 
 from __future__ import annotations

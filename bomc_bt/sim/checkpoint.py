@@ -11,7 +11,9 @@ from streams keyed by the seed and the robot time, so restoring the clock restor
 
 The goal being driven to is restored with its path and the navigator's timers; the
 resumed tree sends the same goal again and the robot drives on. Not restored: a
-relocalization in flight (a pass commits only once localized).
+relocalization in flight (a pass commits only once localized), and, like the recovery's
+own log and the floor it watches, a map a stuck pass refreshed (``refresh_map``): the
+resumed pass navigates on the saved map until it finds the same again.
 """
 
 from __future__ import annotations

@@ -160,10 +160,11 @@ class SimRobot:
         self._matchers.clear()
 
     def refresh_map(self, grid: OccupancyGrid) -> None:
-        """Navigate and localize on ``grid`` from now on; the obstacle layer keeps its marks."""
+        """Navigate and localize on ``grid`` from now on; the obstacle layer keeps its marks (its
+        version moves on: the costmap, map and layer, changed)."""
         if self._obstacles is None:
             return self.use_map(grid)
-        self._map = grid
+        self._map, self._obstacles.version = grid, self._obstacles.version + 1
         self.planners.use_map(grid, self._obstacles)
         self._matchers.clear()
 

@@ -18,9 +18,12 @@ from behaviours.recover import (
     DiagnoseStuck,
     DiagnoseStuckParams,
     EndPassEarly,
+    RefreshMap,
     SkipCutOff,
     StuckCauseIs,
     StuckCauseIsParams,
+    WatchFloor,
+    WatchFloorParams,
 )
 from bomc_bt.algorithm_params import RecoveryParams
 from bomc_bt.budget_plan import PassBudget
@@ -28,8 +31,10 @@ from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitor_pass import progress_key
 from bomc_bt.monitoring import MISSED, PENDING, VISITED, TraversalState
-from bomc_bt.stuck import CUT_OFF, STALE_OBSTACLES, Diagnosis
+from bomc_bt.stale_map import FloorSeen
+from bomc_bt.stuck import CUT_OFF, STALE_MAP, STALE_OBSTACLES, Diagnosis
 from bomc_bt.traversal import TraversalPlan
+from tests.test_stuck import cast, with_box
 
 
 @pytest.fixture(autouse=True)
@@ -246,3 +251,60 @@ def test_waypoints_behind_an_obstacle_seen_again_after_a_clear_are_skipped_and_t
     assert ctx.watch.log[1].result == "carried on without 7 waypoint(s) behind the same obstacles (1 not tried)"
     assert state.states == [MISSED] * 7 + [PENDING] * 3
     assert [state.next() for _ in range(4)] == [7, 8, 9, None]  # on with the robot's own room, and done
+
+
+def doorway_with_a_table_gone():
+    """The saved map: a table stood in the doorway's lower part at the build (clear of the
+    jambs). Now it has gone and a cabinet stands in the upper part: 0.75 m of the doorway
+    are open, enough for the robot, but the map's table and the cabinet leave 0.3 m."""
+    saved = with_box(two_rooms(), 4.85, 4.5, 5.3, 4.85)
+    now = with_box(two_rooms(), 4.85, 5.15, 5.3, 5.5)
+    return saved, now
+
+
+def test_watch_floor_folds_a_scan_in_every_period_once_localized(ctx, robot):
+    saved, now = doorway_with_a_table_gone()
+    robot.grid, robot.latest_scan = saved, cast(now, Pose2D(3.5, 5.0, 0.0))
+    robot.place(None)
+    leaf = WatchFloor("Watch Floor", WatchFloorParams(period=1.0, min_seen=2), ctx)
+    assert tick(leaf) == Status.RUNNING and ctx.floor is None  # no pose: nothing folded in
+    robot.place(Pose2D(3.5, 5.0, 0.0))
+    assert tick(leaf, 3) == Status.RUNNING and ctx.floor.scans == 1  # once per period of robot time
+    assert len(ctx.floor.cells()) == 0
+    robot.advance(1.0)
+    assert tick(leaf) == Status.RUNNING and ctx.floor.scans == 2
+    x, y = saved.cell_to_world(ctx.floor.cells()[:, 0], ctx.floor.cells()[:, 1])
+    assert len(x) > 10 and np.all((x > 4.75) & (x < 5.35) & (y > 4.45) & (y < 4.9))  # the table's cells only
+
+
+def test_refresh_map_hands_the_robot_the_map_with_the_floor_cleared(ctx, robot):
+    saved, _ = doorway_with_a_table_gone()
+    robot.grid = saved
+    floor = np.argwhere(saved.occupied_mask() & ~two_rooms().occupied_mask())
+    py_trees.blackboard.Blackboard.set("/stuck_cause", Diagnosis(STALE_MAP, "a table gone", 0.9, 20.0, floor=floor))
+    assert tick(RefreshMap("Refresh", None, ctx)) == Status.SUCCESS and robot.refreshed_maps == 1
+    assert np.array_equal(robot.grid.data, two_rooms().data)  # navigating on the map without the table
+    assert saved.occupied_mask()[floor[:, 0], floor[:, 1]].all()  # the saved map itself is unchanged
+
+
+def test_the_shipped_recovery_navigates_on_the_floor_seen_when_a_table_gone_hems_the_robot_in(ctx, robot, tmp_path):
+    """Tick-simulation of Keep Going: waypoints beyond the doorway fail three in a row; the
+    floor seen this pass where the map's table stood opens the way, so the round hands the
+    robot the map without it instead of backing out, and the pass goes on."""
+    saved, now = doorway_with_a_table_gone()
+    here = Pose2D(3.5, 5.0, 0.0)
+    robot.grid, robot.latest_scan = saved, cast(now, here)
+    robot.place(here)
+    ctx.floor = FloorSeen(saved, 2.0, 6.0, 2)
+    for _ in range(2):
+        ctx.floor.add(here, robot.latest_scan)
+    ctx.plan = TraversalPlan([Pose2D(8.0, y, 0.0) for y in (5.0, 3.0, 7.0, 2.0, 8.0)], euclidean_length=10.0)
+    state = ctx.traverse = TraversalState(ctx.plan)
+    root = keep_going_tree(ctx, tmp_path)
+    for _ in range(3):
+        finish(state, MISSED, robot)
+        assert run_once(root, robot) == Status.SUCCESS
+    assert ctx.watch.log[0].cause == STALE_MAP and ctx.watch.log[0].action == "refresh_map"
+    assert robot.refreshed_maps == 1 and robot.costmap_clears == 0 and ctx.outcome == ""
+    table = saved.occupied_mask() & ~two_rooms().occupied_mask()
+    assert not robot.grid.occupied_mask()[table].all()  # the robot plans through where the table stood
