@@ -50,7 +50,9 @@ class RelocalizationParams:
     min_beams: int = 20  # [count] fewer valid beams than this can never be confident
     max_recentre: int = 8  # [count] times a refinement grid may move to follow a peak off its edge
     rivals: int = 3  # [count] distinct coarse peaks far from the winner refined to find the runner-up
-    local_candidates: int = 4  # [count] distinct coarse peaks refined in a local search
+    # [count] distinct coarse peaks refined in a local search (a floor changed round the dock puts
+    # the true pose's peak below several wrong ones)
+    local_candidates: int = 12
     global_linear_step: float = 0.3  # [m] coarse grid of candidate positions over the free space
     global_angular_step_deg: float = 3.0  # [deg] coarse grid step of a global search
     global_angular_step = Radians()
