@@ -32,12 +32,12 @@ if TYPE_CHECKING:
 _FOOTPRINT_REACH = 1.5
 
 
-def confused(graph: ObjectGraph, o: Observation, matched: Collection[int], radius: float) -> bool:
-    """Whether ``o`` lies within ``radius`` of a node of another category that this frame
-    did not match (``matched``: the frame's matched node ids), or on such a node's floor
-    footprint; ``radius`` 0: never."""
+def confusing_node(graph: ObjectGraph, o: Observation, matched: Collection[int], radius: float) -> int | None:
+    """The node of another category that this frame did not match (``matched``: the frame's
+    matched node ids) ``o`` lies within ``radius`` of, or on the floor footprint of; None if
+    there is none, or ``radius`` is 0. :mod:`.replacements` counts them."""
     if radius <= 0.0:
-        return False
+        return None
     x, y = float(o.position[0]), float(o.position[1])
     r = max(radius, _FOOTPRINT_REACH)
     square = np.array([[x - r, y - r], [x + r, y - r], [x + r, y + r], [x - r, y + r]])
@@ -48,5 +48,5 @@ def confused(graph: ObjectGraph, o: Observation, matched: Collection[int], radiu
         fp = v.footprint
         if math.hypot(v.position[0] - x, v.position[1] - y) <= radius or (
                 fp is not None and fp[0] <= x <= fp[2] and fp[1] <= y <= fp[3]):
-            return True
-    return False
+            return int(vid)
+    return None

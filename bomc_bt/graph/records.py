@@ -205,6 +205,10 @@ class AssociationParams:
     # only in a frame that also matched that node: one object under two labels in different
     # frames is the detector confusing it, two objects are seen together. 0: off
     relabel_radius: float = 0.3
+    # [count] robust: frames (confirm_interval apart) naming one other kind on a node this pass
+    # has not matched that take the node off: another object stands where it stood
+    # (bomc_bt.graph.replacements). 0: off
+    replace_sightings: int = 3
     # [count] robust: a node taken off after being matched in at most this many frames in all
     # is retracted, not removed: sightings the map no longer trusts (a look-alike, a confusion),
     # reported apart from the changes (bomc_bt.net_changes). 1: never matched again after the
@@ -251,6 +255,9 @@ class AssociationParams:
             raise ValueError("retract_observations must be 0 to 1000")
         if not 0.0 <= self.relabel_radius <= 2.0:
             raise ValueError("relabel_radius must be in [0, 2] m")
+        if isinstance(self.replace_sightings, bool) or not 0 <= self.replace_sightings <= 1000 \
+                or int(self.replace_sightings) != self.replace_sightings:
+            raise ValueError("replace_sightings must be a whole number 0 to 1000")
         if not 0.0 <= self.colour_tolerance <= 0.5:
             raise ValueError("colour_tolerance must be in [0, 0.5] (0 turns it off)")
         if not 0.0 <= self.return_radius <= 2.0:

@@ -52,13 +52,14 @@ import numpy as np
 from bomc_bt.graph import looks, pass_end
 from bomc_bt.graph.association import near_any, never_looked, sighted_before
 from bomc_bt.graph.co_observed import CoObserved
-from bomc_bt.graph.confusions import confused
+from bomc_bt.graph.confusions import confusing_node
 from bomc_bt.graph.evidence import misses_needed
 from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
 from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.parts import longer_than_one, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation, bounded_height
+from bomc_bt.graph.replacements import Replacements
 from bomc_bt.graph.tentative import TentativeSightings
 
 if TYPE_CHECKING:
@@ -76,6 +77,7 @@ class RobustPolicy:
         self.extents = NodeExtents(params)
         self.tentative = TentativeSightings(params, np.array([1.0, 1.0, params.vertical_weight]))
         self.co_observed = CoObserved()  # nodes one frame matched as two objects (never folded)
+        self.replacements = Replacements(params.replace_sightings, params.confirm_interval)
 
     def gate(self, o: Observation) -> float:
         """delta_c, widened by a large object's own spread (capped at ``extent_gate`` * delta_c).
@@ -93,6 +95,7 @@ class RobustPolicy:
         """Match, refresh, count misses, place the unmatched, fold hidden duplicates."""
         self.tentative.begin(session)
         self.co_observed.begin(session)
+        self.replacements.begin(session)
         weights = dict(zip(expected, miss_weights, strict=True)) if miss_weights is not None else {}
         obs, exp = observations, graph.begin(session, expected)
         events: list[Event] = []
@@ -132,9 +135,14 @@ class RobustPolicy:
                 if self.extents.fits(graph, v, o):
                     events.extend(self._refresh(graph, v, o, session, stamp, restart=False, extend=True))
                 continue
-            if not confused(graph, o, matched_nodes, self.params.relabel_radius):
-                fresh.append(j)
-                beside.append(next((int(v) for v in near[j][0] if int(v) in taker), None))
+            vid = confusing_node(graph, o, matched_nodes, self.params.relabel_radius)
+            if vid is not None:  # the detector's other name for a node, or another object in its place
+                events.extend(self.replacements.note(graph, vid, o, session, stamp,
+                                                     self.params.retracts(graph.nodes[vid])))
+                if vid in graph.nodes:
+                    continue
+            fresh.append(j)
+            beside.append(next((int(v) for v in near[j][0] if int(v) in taker), None))
         confirmed = self.tentative.confirm_frame([obs[j] for j in fresh], [self.gate(obs[j]) for j in fresh], stamp,
                                                  beside)
         placed: list[Node] = []  # nodes added or moved in this frame
