@@ -5,6 +5,7 @@ get its own node (graph level, the default configuration)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bomc_bt.graph import AssociationParams, ObjectGraph, Observation
 
@@ -99,3 +100,9 @@ def test_with_replacements_off_the_table_stays_and_the_cabinet_is_never_added():
     frames(graph, [[seen("table", 3.65, -3.95, z=0.375, extent=0.6)]] * 4)
     later_pass(graph, [[seen("cabinet", 3.56, -3.6, z=0.6, extent=0.45)]] * 6, session=2)
     assert sorted(v.category for v in graph.nodes.values()) == ["table"]
+
+
+@pytest.mark.parametrize("value", [-1, 1001, 2.5, True])
+def test_replace_sightings_is_range_checked(value):
+    with pytest.raises(ValueError, match="replace_sightings"):
+        AssociationParams(replace_sightings=value)

@@ -208,7 +208,9 @@ def test_the_diagnosis_line_names_the_place_the_rounds_and_the_cause():
 
 
 @pytest.mark.parametrize("field,value", [("max_missed", -1), ("max_rounds", 0), ("min_agreement", 1.5),
-                                         ("backout_distance", 0.0), ("no_progress_time", -1.0)])
+                                         ("backout_distance", 0.0), ("no_progress_time", -1.0),
+                                         ("stale_furniture_area", -1.0), ("floor_range", 0.0),
+                                         ("floor_min_seen", 0), ("floor_min_seen", 1.5), ("floor_period", 0.0)])
 def test_recovery_params_are_range_checked(field, value):
     with pytest.raises(ValueError, match=field):
         RecoveryParams(**{field: value})
