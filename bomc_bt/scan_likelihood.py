@@ -113,6 +113,17 @@ def crosses(grid: OccupancyGrid, occupied: np.ndarray, pose: Pose2D, wx: np.ndar
     return occ.any(axis=1)
 
 
+def small_blobs(mask: np.ndarray, resolution: float, area: float) -> np.ndarray:
+    """The cells of ``mask`` in 8-connected blobs of at most ``area`` m² (cells ``resolution`` m
+    wide): on a saved map's occupied cells, the furniture, never a stretch of wall."""
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    if count <= 1:
+        return np.zeros(mask.shape, dtype=bool)
+    small = stats[:, cv2.CC_STAT_AREA] * resolution ** 2 <= area
+    small[0] = False  # the background label
+    return small[labels]
+
+
 class LikelihoodField:
     """Likelihood fields of one map (cached per sigma) and the scores of poses against them."""
 
@@ -137,10 +148,7 @@ class LikelihoodField:
         finds gone was one of those small blobs, never a stretch of wall."""
         key = ("walls", round(furniture_area, 6))
         if key not in self._cache:
-            count, labels, stats, _ = cv2.connectedComponentsWithStats(self.occupied.astype(np.uint8), connectivity=8)
-            small = stats[:, cv2.CC_STAT_AREA] * self.resolution ** 2 <= furniture_area
-            small[0] = True  # the background label
-            self._cache[key] = ~small[labels] if count > 1 else self.occupied.copy()
+            self._cache[key] = self.occupied & ~small_blobs(self.occupied, self.resolution, furniture_area)
         return self._cache[key]
 
     def padded(self, sigma: float, pad: int) -> np.ndarray:

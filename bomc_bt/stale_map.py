@@ -18,24 +18,19 @@ never changes.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from bomc_bt.geometry import Pose2D
 from bomc_bt.grid import FREE, OccupancyGrid
 from bomc_bt.robot import LaserScan
+from bomc_bt.scan_likelihood import small_blobs
 from bomc_bt.scan_raster import rasterise
 
 
 def furniture_cells(grid: OccupancyGrid, furniture_area: float) -> np.ndarray:
-    """Bool mask of the occupied cells in 8-connected blobs of at most ``furniture_area`` m²."""
-    occupied = grid.occupied_mask()
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(occupied.astype(np.uint8), connectivity=8)
-    if count <= 1:
-        return np.zeros_like(occupied)
-    small = stats[:, cv2.CC_STAT_AREA] * grid.resolution ** 2 <= furniture_area
-    small[0] = False  # the background label
-    return small[labels]
+    """Bool mask of the occupied cells in 8-connected blobs of at most ``furniture_area`` m²
+    (as relocalization tells furniture from walls, :meth:`~bomc_bt.scan_likelihood.LikelihoodField.walls`)."""
+    return small_blobs(grid.occupied_mask(), grid.resolution, furniture_area)
 
 
 def _raster_window(grid: OccupancyGrid, pose: Pose2D, scan: LaserScan | None, max_range: float):

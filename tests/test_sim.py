@@ -245,6 +245,40 @@ def test_a_robot_with_no_plan_from_where_it_stands_gives_up_after_the_plan_patie
     assert ended[5.0][0] <= ended[15.0][0] - 9.0, ended  # gave up 10 s sooner (the clock's steps aside)
 
 
+def test_a_pass_resumed_while_its_robot_has_no_plan_gives_up_when_the_uninterrupted_one_does():
+    """Exact resume (bomc_bt/sim/checkpoint.py): a pass killed while its robot waits with no
+    plan gives the goal up at the same robot time as the pass that was never killed."""
+    import json
+
+    from bomc_bt.sim.checkpoint import restore_robot, robot_state
+
+    data = room_data(12.0, 2.0)
+    world = make_world(data, Pose2D(1.0, 1.0, 0.0),
+                       sessions={2: Change(obstacles=[Obstacle((6.0, 1.0), (0.4, 2.0), 1.0)])})
+    goal = Pose2D(11.0, 1.0)
+    robot = SimRobot(world, 2, SimParams(), seed=0, mode="monitor")
+    localize(robot, world.grid, world.start)
+    handle = robot.navigate(goal)
+    while robot.navigator._no_plan_since is None:  # until the lidar shows the block: no plan at all
+        robot.step()
+    waiting_since = robot.now()
+    while robot.now() < waiting_since + 2.5:  # killed halfway through the wait
+        robot.step()
+    assert handle.status() is Status.RUNNING
+    saved = json.loads(json.dumps(robot_state(robot)))
+    killed = robot.now()
+    resumed = SimRobot(world, 2, SimParams(), seed=0, mode="monitor")
+    resumed.use_map(world.grid)
+    restore_robot(resumed, saved)
+    assert resumed.now() == killed
+    again = resumed.navigate(goal)
+    ends = []
+    for r, h in ((robot, handle), (resumed, again)):
+        assert run_until_done(r, h, r.now() + 200.0) is Status.BLOCKED and h.message == "no plan for 5 s"
+        ends.append(r.now())
+    assert ends[0] == ends[1], ends
+
+
 def test_no_path_at_all_fails_and_new_goal_cancels_old():
     data = room_data(10.0, 4.0)
     block(data, 4.9, 5.1, 0.0, 4.0)  # a wall cutting the room in two

@@ -13,7 +13,9 @@ So a node this pass has not matched, whose place ``replace_sightings`` frames (a
 kind, is taken off: removed, or retracted if the map never trusted it (it may still turn
 out to have moved, :meth:`~bomc_bt.graph.ObjectGraph.restore`). The sighting that made the
 count then goes the way of any new object's (confirmed by the frames after it). A node
-matched once in this pass keeps its label: then the other name was the detector's.
+matched once in this pass keeps its label: then the other name was the detector's. The
+count is the pass's own, kept in memory like the tentative sightings: a pass resumed after a
+kill counts again.
 """
 
 from __future__ import annotations

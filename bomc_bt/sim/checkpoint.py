@@ -67,6 +67,7 @@ def _navigation_state(nav) -> dict[str, Any] | None:
             "best": finite(nav._best), "last_progress": finite(nav._last_progress),
             "next_check": finite(nav._next_check), "fail_at": finite(nav._fail_at),
             "stuck_since": finite(nav._stuck_since), "backup_until": finite(nav._backup_until),
+            "no_plan_since": finite(nav._no_plan_since),
             "at_position": bool(nav._at_position),
             "progress_marks": nav._marks.tolist()}
 
@@ -87,6 +88,8 @@ def _restore_navigation(robot, saved: dict[str, Any] | None) -> None:
     nav._next_check, nav._fail_at = value("next_check", 0.0), value("fail_at", np.inf)
     nav._stuck_since = None if saved["stuck_since"] is None else float(saved["stuck_since"])
     nav._backup_until = value("backup_until", -np.inf)
+    no_plan = saved.get("no_plan_since")  # absent in checkpoints saved before plan_patience
+    nav._no_plan_since = None if no_plan is None else float(no_plan)
     nav._at_position = bool(saved["at_position"])
     marks = saved.get("progress_marks") or []  # absent in checkpoints saved before they were kept
     nav._marks = np.asarray(marks, dtype=float).reshape(-1, 3)
