@@ -74,8 +74,7 @@ def ideal_report(truth: list[ObjectChange], move_radius: float, radius: float,
     olds, news = [as_node[id(c)] for c in removed], [as_node[id(c)] for c in added]
     back = {n.id for n, _ in brought_back(news, gone, return_radius, tolerance)}
     news = [n for n in news if n.id not in back]
-    pairs = [(a, b) for a, b in relocation_pairs(olds, news, radius)
-             if not looks_apart(a, b, tolerance)]
+    pairs = relocation_pairs(olds, news, radius, lambda a, b: looks_apart(a, b, tolerance))
     paired = {n.id for pair in pairs for n in pair}
     pairs += look_pairs([n for n in olds if n.id not in paired], [n for n in news if n.id not in paired], tolerance,
                         population)

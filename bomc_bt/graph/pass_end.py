@@ -86,8 +86,8 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
         events.append(graph.report("updated", arrival, session, stamp))
         events[-1].detail = {BACK_OF: went.id}
     arrivals = [n for n in arrivals if n.id not in {a.id for a, _ in back}]
-    near = [(v, a) for v, a in relocation_pairs(removed, arrivals, policy.params.relocation_radius)
-            if not looks_apart(v, a, tolerance)]
+    near = relocation_pairs(removed, arrivals, policy.params.relocation_radius,
+                            lambda v, a: looks_apart(v, a, tolerance))
     paired = {n.id for pair in near for n in pair}
     far = look_pairs([v for v in removed if v.id not in paired], [a for a in arrivals if a.id not in paired],
                      tolerance, list(graph.nodes.values()))
