@@ -27,8 +27,9 @@ left in ``DIR/world.yaml``:
 The radii compared default to 0 (no pairing), 3, 5, 8, 12 m and unbounded.
 
 ``--looks`` gives the ideal reporter eyes for colour too (worlds whose objects have a
-``colour``, as both generators write them): position pairs whose looks differ are dropped,
-and removals and additions left are paired by look as a pass does when it ends
+``colour``, as both generators write them): a removal and an addition whose looks differ are
+neither a pair by position nor each other's nearest, and the removals and additions left
+are paired by look as a pass does when it ends
 (:func:`bomc_bt.graph.looks.look_pairs`, ``association.colour_tolerance``):
     python benchmarks/bench_change_ceiling.py --office 36x28:7503:12 --radius 5 --looks --per-session
 An addition within ``association.return_radius`` of where an object of its kind and look went
