@@ -20,6 +20,8 @@ import cv2
 import numpy as np
 
 from bomc_bt.geometry import Pose2D, wrap_angle
+from bomc_bt.graph.robust import RobustPolicy
+from bomc_bt.graph.walls import Walls
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
 from bomc_bt.pass_resume import ResumeText, earlier_co_observed, frame_progress
@@ -332,6 +334,8 @@ seen before it is written. With a store, every frame
         self.coverage = Coverage(grid, self.near_range)
         self.looked = Coverage(grid)
         self.sightings = Sightings(grid)
+        if isinstance(getattr(self.graph, "policy", None), RobustPolicy):  # no object's end across a wall
+            self.graph.policy.walls = Walls(grid)
         if self.seen_before is not None:  # a place new to the map is no moved object's new place
             self.graph.never_looked = self.seen_before.never_looked
             self.graph.sighted_before = self.seen_before.sighted_here

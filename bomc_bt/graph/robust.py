@@ -64,6 +64,7 @@ from bomc_bt.graph.tentative import TentativeSightings
 
 if TYPE_CHECKING:
     from bomc_bt.graph.object_graph import ObjectGraph
+    from bomc_bt.graph.walls import Walls
 
 Pair = tuple[float, int, int]  # (squared distance, node id, observation index)
 
@@ -75,6 +76,7 @@ class RobustPolicy:
         self.params = params
         self.vertical_weight = params.vertical_weight
         self.extents = NodeExtents(params)
+        self.walls: Walls | None = None  # the saved map, when the pass gives it (:mod:`~bomc_bt.graph.walls`)
         self.tentative = TentativeSightings(params, np.array([1.0, 1.0, params.vertical_weight]))
         self.co_observed = CoObserved()  # nodes one frame matched as two objects (never folded)
         self.replacements = Replacements(params.replace_sightings, params.confirm_interval)
@@ -129,7 +131,8 @@ class RobustPolicy:
         for j, o in enumerate(obs):
             if j in matched_obs or self._absorbed(o, near[j][0], taker):
                 continue
-            if o.truncated and (v := self.extents.touched_node(graph, o)) is not None:
+            if o.truncated and (v := self.extents.touched_node(graph, o)) is not None \
+                    and not (self.walls is not None and self.walls.between(v.footprint, o.box)):
                 # a part of a known object, cut off by an occluder (see NodeExtents.touched_node),
                 # unless it would make that object longer than its kind (NodeExtents.fits)
                 if self.extents.fits(graph, v, o):
