@@ -133,8 +133,8 @@ class RobustPolicy:
                 continue
             if o.truncated and (v := self.extents.touched_node(graph, o)) is not None \
                     and not (self.walls is not None and self.walls.between(v.footprint, o.box)):
-                # a part of a known object, cut off by an occluder (see NodeExtents.touched_node),
-                # unless it would make that object longer than its kind (NodeExtents.fits)
+                # a part of a known object, cut off by an occluder (see NodeExtents.touched_node), not
+                # one across a wall (walls.Walls), unless it would make that object longer than its kind
                 if self.extents.fits(graph, v, o):
                     events.extend(self._refresh(graph, v, o, session, stamp, restart=False, extend=True))
                 continue
