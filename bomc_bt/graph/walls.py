@@ -9,7 +9,7 @@ named "sofa", lay on the corridor side of the wall the room's sofa stands agains
 from the sofa's footprint. Taken for the sofa's hidden end, it stretched the footprint
 from 1.9 m to 3.4 m along the wall and moved the node 0.77 m off the sofa. Each pass
 after that began from the stretched footprint, whose views all lay inside it, so nothing
-shrank it again: the sofa stayed "displaced" for all eleven passes.
+shrank it again: the sofa stayed "displaced" in all twelve passes of the run.
 
 The test is the saved map: the shortest segment between the view's box and the
 footprint, outside both, crossing a cell the map holds as occupied, is a wall (or another
