@@ -59,9 +59,7 @@ class Walls:
             return False
         t = np.linspace(0.0, 1.0, max(3, int(np.ceil(gap / (self.grid.resolution * 0.5))) + 1))
         points = a + t[:, None] * (b - a)
-        points = points[_outside(points, box) & _outside(points, footprint)]
-        if len(points) == 0:
-            points = (a + b)[None, :] / 2.0
+        points = points[_outside(points, box) & _outside(points, footprint)]  # those strictly between the two
         rows, cols = self.grid.world_to_cell(points[:, 0], points[:, 1])
         inside = self.grid.in_bounds(rows, cols)
         return bool(self.occupied[rows[inside], cols[inside]].any())
