@@ -15,7 +15,9 @@ import http.client
 import json
 import math
 import shutil
+import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import pytest
@@ -140,6 +142,30 @@ def test_a_session_without_a_timeline_says_so(browser, office, tmp_path):
         browser.wait_for("document.querySelector('#replay-time').textContent.includes('no timeline recorded')",
                          what="the missing timeline said")
         assert browser.evaluate("document.querySelector('#replay-t').disabled") is True
+        assert browser.errors == []
+    finally:
+        server.close()
+
+
+def test_extensions_that_load_after_the_site_data_still_show_it(browser, office, tmp_path, monkeypatch):
+    """replay.js and corrections.js arriving after the site's data (a slow disk, a busy server)."""
+    import bomc_bt.viewer.server as viewer_server
+
+    real = viewer_server.mimetypes.guess_type
+
+    def slow_extensions(name: str, *args, **kwargs):
+        if name in ("replay.js", "corrections.js"):
+            time.sleep(1.5)
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(viewer_server, "mimetypes", SimpleNamespace(guess_type=slow_extensions))
+    site = shutil.copytree(office["site"], tmp_path / "site")
+    server = serve_site(site, port=0)
+    try:
+        browser.open(server.url)
+        browser.wait_for("document.querySelector('#replay').dataset.ready === '1'", what="the timeline")
+        browser.wait_for("document.querySelector('#corrections').dataset.available === 'yes' && "
+                         "document.querySelectorAll('#edit-node option').length > 0", what="the corrections form")
         assert browser.errors == []
     finally:
         server.close()

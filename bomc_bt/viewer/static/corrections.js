@@ -83,6 +83,7 @@
     });
   });
   V.extend.render.push((keys) => { if (keys.includes("corrections")) { render(); onAction(); } });
+  if (V.state.sections.corrections) { render(); onAction(); }  // it came before this script
 
   // A click on the map picks the nearest object within 15 px for the form.
   $("map").addEventListener("click", (e) => {

@@ -156,6 +156,8 @@
     });
   });
   V.extend.session.push((n) => { if (n !== R.session) load(n); });
+  // The site's data may have come before this script did (it loads after app.js): catch up.
+  if (V.state.site.session !== null) load(V.state.site.session);
 
   // ------------------------------------------------------------------ controls
   function stop() { R.playing = false; if (R.timer) clearInterval(R.timer); R.timer = null; }
