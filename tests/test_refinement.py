@@ -108,3 +108,25 @@ def test_a_table_whose_footprint_restarts_on_its_other_end_is_no_move_while_its_
     graph, events = pass_2(node, [view((1.1, -0.4, 2.7, 0.4), (1.9, 0.0), truncated=False),
                                   view((1.1, -0.4, 1.6, 0.4), (1.35, 0.0), truncated=True)], gate=1.18)
     assert [c.kind for c in net_changes(events, 1, lambda _c: 1.0)] == ["moved"]
+
+
+def test_a_table_the_pass_saw_go_and_found_elsewhere_is_a_move_not_a_refinement():
+    # 36 x 28 m office, seed 9001, pass 11: the pass matched a view on the table's old floor
+    # (at 762 s), then counted it missing there and removed it (772.5 s); at the pass's end
+    # the removal was paired with a table new 23 m away (moved). The view on the old floor
+    # made that move a "refinement", and no change was reported for a table carried across
+    # the floor. Here: one view on the old floor, three misses, the table seen again 2.5 m
+    # east (a move the pass keeps at once) or 4.5 m east (paired when the pass ends).
+    for shift in (2.5, 4.5):
+        graph = ObjectGraph(AssociationParams(), [table(0.0, 2.0)])
+        events = [Event("added", 0, "table", graph.nodes[0].position.copy(), 1, 5.0)]
+        events += graph.associate([table_view(0.0, 2.0)], [0], 2, 10.0)
+        for t in (11.0, 12.0, 13.0):
+            events += graph.associate([], [0], 2, t)
+        assert 0 not in graph.nodes  # its absence confirmed where it stood
+        for t in (14.0, 15.0):
+            events += graph.associate([table_view(shift, shift + 2.0)], [], 2, t)
+        events += graph.pair_relocations(2, 20.0) + graph.mark_refinements(2, 20.0)
+        assert not [e for e in events if (e.detail or {}).get(REFINED_FROM) is not None]
+        [change] = net_changes(events, 1, lambda _c: 0.7)
+        assert (change.kind, change.node_id, round(change.distance, 2)) == ("moved", 0, shift)

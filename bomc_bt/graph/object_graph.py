@@ -302,14 +302,15 @@ class ObjectGraph:
                merged_into: int | None = None, retracted: bool = False) -> Event:
         """Take ``v`` off the graph. Unless it was ``merged`` into another node (the node
         ``merged_into``, when known), it may come back in this session as a move
-        (:meth:`restore`). The event carries the evidence: the misses that confirmed the
+        (:meth:`restore`), and a move it is, never a refinement (no start footprint: gone from
+        its floor). The event carries the evidence: the misses that confirmed the
         removal (0 for a merge) and when the node was last seen."""
         merged = merged or merged_into is not None
         self.index.delete(v.id, v.category, v.position)
         del self.nodes[v.id]
         v.state = REMOVED
         if not merged:
-            self._removed_now[v.id] = v
+            self._removed_now[v.id], self.started[v.id] = v, (None, v.position.copy())
         self._pending.discard(v.id)
         self._last_miss.pop(v.id, None)
         self.evidence.forget(v.id)
