@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
+from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import Perception
+from bomc_bt.net_changes import net_changes
 from bomc_bt.pass_resume import earlier_co_observed, resume_key
 from bomc_bt.perception.projection import ProjectionParams
 from bomc_bt.store import SiteStore
@@ -112,3 +113,30 @@ def test_two_chairs_first_seen_together_in_one_frame_are_not_folded_later_in_tha
     assert sorted(g.nodes) == [0, 1]
     g.associate([view(0.35)], [0], 1, 5.0, in_view=[0, 1])
     assert sorted(g.nodes) == [0, 1]
+
+
+def door(i: int, y: float, seen: int) -> Node:
+    return Node(i, "door", np.array([0.0, y, 1.0]), 0.9, 1, 1, observations=seen)
+
+
+def test_a_node_gone_beside_its_twin_is_the_twins_duplicate_unless_seen_apart():
+    # 50 x 45 m office, seed 9004: pass 1 left two nodes for one door, 0.47 m apart (one
+    # started 0.77 m off and drifted in); pass 2 matched the door's views to one of them,
+    # counted the other missing and reported it removed: a phantom. No frame ever showed
+    # the two as two objects, so the one gone was the other's duplicate.
+    graph = ObjectGraph(AssociationParams(), [door(0, 0.0, 30), door(1, 0.47, 9)])
+    events = [Event("added", n.id, "door", n.position.copy(), 1, 5.0) for n in graph.nodes.values()]
+    for t in (1.0, 2.0, 3.0, 4.0):
+        events += graph.associate([Observation("door", np.array([0.0, 0.02, 1.0]), 0.9, 800, 0.0)], [0, 1], 2, t)
+    assert list(graph.nodes) == [0]
+    [gone] = [e for e in events if e.kind == "removed"]
+    assert gone.node_id == 1 and gone.detail["merged_into"] == 0
+    assert net_changes(events, 1, lambda _c: 0.7) == []
+
+    # two chairs 0.6 m apart that an earlier pass saw side by side: one taken away is a removal
+    graph = ObjectGraph(AssociationParams(), [chair(0, 0.0, 30), chair(1, 0.6, 26)])
+    graph.keep_apart(2, [(0, 1)])
+    events = [Event("added", n.id, "chair", n.position.copy(), 1, 5.0) for n in graph.nodes.values()]
+    for t in (1.0, 2.0, 3.0, 4.0):
+        events += graph.associate([view(0.0)], [0, 1], 2, t)
+    assert [(c.kind, c.node_id) for c in net_changes(events, 1, lambda _c: 0.7)] == [("removed", 1)]
