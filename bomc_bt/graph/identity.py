@@ -37,19 +37,20 @@ def keeper(a: Node, b: Node, session: int) -> tuple[Node, Node]:
     return (a, b) if rank(a) >= rank(b) else (b, a)
 
 
-def seen_twin(graph: ObjectGraph, v: Node, reach: float, seen_apart: Callable[[int, int], bool]) -> Node | None:
+def twin_of(graph: ObjectGraph, v: Node, reach: float, seen_apart: Callable[[int, int], bool]) -> Node | None:
     """The node ``v`` duplicated, when its misses confirm it gone: one of its category at
-    least as old, within ``reach`` (delta_c), that this pass saw and that no frame ever
-    showed beside ``v`` (nearest, then lowest id); None when there is none.
+    least as old, within ``reach`` (delta_c), that no frame ever showed beside ``v``
+    (nearest, then lowest id); None when there is none.
 
-    Why: a node whose place a neighbour of its kind was seen at, closer than association
-    tells two objects apart, and never matched in one frame with it, was a second node for
-    that neighbour's object. Its absence is no change: the object is there, under the other
-    id. Generated 50 x 45 m office, seed 9004, pass 2, and 93 x 90 m, seed 9003, pass 2: one
-    door each, two nodes 0.40-0.50 m apart from pass 1, one removed as a phantom. Chairs
-    0.56-0.70 m apart whose removal was right (10 on eleven kept multi-pass sites) had all
-    been seen side by side (:mod:`bomc_bt.graph.co_observed`)."""
+    Why: a node with a neighbour of its kind closer than association tells two objects apart,
+    never matched in one frame with it, was a second node for that neighbour's object. Its
+    absence is no change: the object is where the other node stands, and that node's own
+    misses report it if it went. Generated 50 x 45 m office, seed 9004, pass 2, and 93 x 90
+    m, seed 9003, pass 2: one door each, two nodes 0.47-0.49 m apart from pass 1, one removed
+    as a phantom (in the first, 11 s into the pass, before a frame matched the other). Of the
+    17 other removals beside a node of their kind within 0.7 m on eleven kept multi-pass sites
+    (chairs 0.51-0.67 m apart, a bin), every one had been seen side by side
+    (:mod:`bomc_bt.graph.co_observed`) and stays a removal."""
     near = [(d, w.id, w) for w, d in graph.within(v.category, v.position, reach)
-            if w.id != v.id and w.first_session <= v.first_session and w.last_seen is not None
-            and not seen_apart(v.id, w.id)]
+            if w.id != v.id and w.first_session <= v.first_session and not seen_apart(v.id, w.id)]
     return min(near, key=lambda t: t[:2])[2] if near else None

@@ -56,7 +56,7 @@ from bomc_bt.graph.confusions import confusing_node
 from bomc_bt.graph.evidence import misses_needed
 from bomc_bt.graph.extents import BIG_MARGIN, NodeExtents
 from bomc_bt.graph.geometry import dist2_scalar
-from bomc_bt.graph.identity import keeper, seen_twin
+from bomc_bt.graph.identity import keeper, twin_of
 from bomc_bt.graph.parts import longer_than_one, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation, bounded_height
 from bomc_bt.graph.replacements import Replacements
@@ -306,8 +306,8 @@ class RobustPolicy:
             arrival = self._arrival(graph, v, session)
             if arrival is not None:
                 return self.moved_to(graph, v, arrival, session, stamp)
-            twin = seen_twin(graph, v, self.params.distance(v.category), self.co_observed.seen_apart)
-            into = None if twin is None else twin.id  # a duplicate of a node seen here: no change
+            twin = twin_of(graph, v, self.params.distance(v.category), self.co_observed.seen_apart)
+            into = None if twin is None else twin.id  # a duplicate of the node there: no change
             return [graph.remove(v, session, stamp, merged_into=into, retracted=self.params.retracts(v))]
         return []
 
