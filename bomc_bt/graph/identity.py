@@ -47,9 +47,9 @@ def twin_of(graph: ObjectGraph, v: Node, reach: float, seen_apart: Callable[[int
     absence is no change: the object is where the other node stands, and that node's own
     misses report it if it went. Generated 50 x 45 m office, seed 9004, pass 2, and 93 x 90
     m, seed 9003, pass 2: one door each, two nodes 0.47-0.49 m apart from pass 1, one removed
-    as a phantom (in the first, 11 s into the pass, before a frame matched the other). Of the
-    17 other removals beside a node of their kind within 0.7 m on eleven kept multi-pass sites
-    (chairs 0.51-0.67 m apart, a bin), every one had been seen side by side
+    as a phantom (in the first, 11 s into the pass, before a frame matched the other). The 15
+    other removals beside a node of their kind within 0.7 m on eleven kept multi-pass sites
+    (chairs 0.51-0.67 m apart, a bin) had all been seen side by side
     (:mod:`bomc_bt.graph.co_observed`) and stays a removal."""
     near = [(d, w.id, w) for w, d in graph.within(v.category, v.position, reach)
             if w.id != v.id and w.first_session <= v.first_session and not seen_apart(v.id, w.id)]
