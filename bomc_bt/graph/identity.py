@@ -50,7 +50,7 @@ def twin_of(graph: ObjectGraph, v: Node, reach: float, seen_apart: Callable[[int
     as a phantom (in the first, 11 s into the pass, before a frame matched the other). The 15
     other removals beside a node of their kind within 0.7 m on eleven kept multi-pass sites
     (chairs 0.51-0.67 m apart, a bin) had all been seen side by side
-    (:mod:`bomc_bt.graph.co_observed`) and stays a removal."""
+    (:mod:`bomc_bt.graph.co_observed`) and stay removals."""
     near = [(d, w.id, w) for w, d in graph.within(v.category, v.position, reach)
             if w.id != v.id and w.first_session <= v.first_session and not seen_apart(v.id, w.id)]
     return min(near, key=lambda t: t[:2])[2] if near else None
