@@ -25,6 +25,7 @@ from browser import Browser
 from replay_site import make_replay_site, status_at, timeline_records
 from site_files import bomc, snapshot
 
+import bomc_bt.viewer.server as viewer_server
 from bomc_bt.site_lock import SiteLock
 from bomc_bt.store import SiteStore
 from bomc_bt.viewer import serve_site
@@ -149,13 +150,12 @@ def test_a_session_without_a_timeline_says_so(browser, office, tmp_path):
 
 def test_extensions_that_load_after_the_site_data_still_show_it(browser, office, tmp_path, monkeypatch):
     """replay.js and corrections.js arriving after the site's data (a slow disk, a busy server)."""
-    import bomc_bt.viewer.server as viewer_server
-
-    real = viewer_server.mimetypes.guess_type
+    real, delayed = viewer_server.mimetypes.guess_type, []
 
     def slow_extensions(name: str, *args, **kwargs):
         if name in ("replay.js", "corrections.js"):
             time.sleep(1.5)
+            delayed.append(name)
         return real(name, *args, **kwargs)
 
     monkeypatch.setattr(viewer_server, "mimetypes", SimpleNamespace(guess_type=slow_extensions))
@@ -167,6 +167,7 @@ def test_extensions_that_load_after_the_site_data_still_show_it(browser, office,
         browser.wait_for("document.querySelector('#corrections').dataset.available === 'yes' && "
                          "document.querySelectorAll('#edit-node option').length > 0", what="the corrections form")
         assert browser.errors == []
+        assert sorted(delayed) == ["corrections.js", "replay.js"]  # the race this test is about did happen
     finally:
         server.close()
 
