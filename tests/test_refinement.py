@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
+from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation, refinement
 from bomc_bt.graph.refinement import REFINED_FROM
 from bomc_bt.net_changes import net_changes
 
@@ -130,3 +130,42 @@ def test_a_table_the_pass_saw_go_and_found_elsewhere_is_a_move_not_a_refinement(
         assert not [e for e in events if (e.detail or {}).get(REFINED_FROM) is not None]
         [change] = net_changes(events, 1, lambda _c: 0.7)
         assert (change.kind, change.node_id, round(change.distance, 2)) == ("moved", 0, shift)
+
+
+def test_a_table_seen_at_one_end_then_at_the_other_is_no_move_one_pushed_beside_its_old_end_is():
+    # 36 x 28 m office, seed 9001, pass 2 (table-4, 1.6 x 0.8 m, here from x 0 to 1.6): pass 1
+    # saw its east 0.68 m (chairs hid the rest); pass 2 sees its west 1.04 m (now chairs hide
+    # the east end) and restarts the footprint there. The two footprints touch and together
+    # are one table: the node went 0.74 m west and the table did not move.
+    def node() -> Node:
+        return Node(0, "table", np.array([1.26, 0.0, 0.4]), 0.9, 1, 1, observations=9,
+                    footprint=np.array([0.92, -0.4, 1.6, 0.4]))
+
+    west_end = [view((0.0, -0.42, 1.04, 0.42), (0.52, 0.0), truncated=False),
+                view((0.0, -0.4, 1.02, 0.4), (0.51, 0.0), truncated=True)]
+    graph, events = pass_2(node(), west_end, gate=1.0)
+    assert abs(graph.nodes[0].position[0] - 0.52) < 0.05  # 0.74 m from where it began
+    assert [e.node_id for e in events if (e.detail or {}).get(REFINED_FROM) is not None] == [0]
+    assert net_changes(events, 1, lambda _c: 0.7) == []
+
+    # the same table pushed 0.8 m sideways: its footprint now lies beside the old end, not
+    # along it (together 1.6 m across a 0.8 m table), and the move is reported
+    sideways = [view((0.0, 0.4, 1.6, 1.2), (0.8, 0.8), truncated=False),
+                view((0.0, 0.4, 1.6, 1.2), (0.8, 0.8), truncated=False)]
+    graph, events = pass_2(node(), sideways, gate=1.0)
+    assert not [e for e in events if (e.detail or {}).get(REFINED_FROM) is not None]
+    assert [c.kind for c in net_changes(events, 1, lambda _c: 0.7)] == ["moved"]
+
+
+def test_one_end_of_a_footprint_needs_touch_one_line_a_shorter_part_and_one_objects_length():
+    end_of_one = refinement.end_of_one
+    west, east = np.array([0.0, -0.4, 0.68, 0.4]), np.array([0.66, -0.4, 1.7, 0.4])
+    assert end_of_one(west, east, 1.23, 0.9, 0.2, 0.5)  # 1.70 m together: one 1.6 m table
+    assert not end_of_one(west, east, 1.23, 0.9, 0.2, 0.0)  # nothing hidden: longer than 1.04 + 0.2
+    assert not end_of_one(east, west, 1.23, 0.9, 0.2, 0.5)  # the end it began with was the longer
+    assert not end_of_one(west, east + [0.2, 0, 0.2, 0], 1.23, 0.9, 0.2, 0.5)  # 0.18 m apart
+    assert not end_of_one(west, east + [0, 0.6, 0, 0.6], 1.23, 0.9, 0.2, 0.5)  # beside it, not along
+    # a chair-sized object hides nothing: two touching boxes longer together than one are two
+    part, rest = np.array([0.0, -0.25, 0.3, 0.25]), np.array([0.3, -0.25, 1.1, 0.25])
+    assert not end_of_one(part, rest, 0.6, 0.9, 0.2, 0.5)
+    assert end_of_one(part, rest, 1.0, 0.9, 0.2, 0.5)  # one object of 1 m: they are its two ends

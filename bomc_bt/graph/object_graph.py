@@ -25,7 +25,7 @@ from bomc_bt.graph.geometry import check_polygon
 from bomc_bt.graph.operator_edits import OperatorEdits
 from bomc_bt.graph.paper import PaperPolicy
 from bomc_bt.graph.records import PRESENT, REMOVED, AssociationParams, Event, Node, Observation
-from bomc_bt.graph.refinement import refinements
+from bomc_bt.graph.refinement import ends_of_one, refinements
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.spatial import SpatialIndex
 from bomc_bt.graph.tentative import Sighting
@@ -206,12 +206,12 @@ class ObjectGraph:
 
     def mark_refinements(self, session: int, stamp: float) -> list[Event]:
         """When ``session`` ends, after its relocations are paired: an ``updated`` event marked
-        refined for each older node whose shift was its footprint growing over the one it
-        began the pass with (:mod:`bomc_bt.graph.refinement`). The paper's policy keeps no
-        footprints, so marks nothing."""
+        refined for each older node whose shift was a better view of the floor it stood on
+        (:mod:`bomc_bt.graph.refinement`). The paper's policy keeps no footprints: none."""
         if self.params.mode == "paper":
             return []
-        return refinements(self, self.started, session, stamp, self.threshold, self.policy.extents.shown_on_start(self))
+        return refinements(self, self.started, session, stamp, self.threshold, self.policy.extents.shown_on_start(self),
+                           ends_of_one(self, session))
 
     def begin(self, session: int, expected: Sequence[int]) -> list[int]:
         """Start a frame of ``session``; returns ``expected`` without repeats and absent ids.
