@@ -17,6 +17,7 @@ import numpy as np
 
 from bomc_bt.graph.footprints import NOISE_PAD, box_gap, half_diagonal, inside, longest_side, overlapping, sides, union
 from bomc_bt.graph.parts import FOOTPRINT_RANK, footprint_length
+from bomc_bt.graph.pass_views import PassViews
 from bomc_bt.graph.records import AssociationParams, Node, Observation
 
 if TYPE_CHECKING:
@@ -52,7 +53,7 @@ class NodeExtents:
         # nodes whose footprint holds only views cut off by an occluder or the image border
         # (a footprint loaded from the store counts as whole: a pass saw most objects whole)
         self._partial: set[int] = set()
-        self._on_start: dict[int, np.ndarray] = {}  # node id: its views this pass on the floor it began with
+        self.views = PassViews()  # the floor each node's views covered this pass
 
     def reach(self, o: Observation) -> float:
         """How far from ``o`` a node whose size makes it the same object may lie."""
@@ -190,17 +191,17 @@ class NodeExtents:
 
     def to_json(self) -> dict:
         """What a resumed pass needs: longest views, longest whole views, partial footprints,
-        views on the footprints the pass began with (JSON-able)."""
+        the floor views of this pass covered (:class:`~bomc_bt.graph.pass_views.PassViews`; JSON-able)."""
         return {"longest": {str(i): x for i, x in self._longest_view.items()}, "partial": sorted(self._partial),
                 "whole": {str(i): x.tolist() for i, x in self._whole_view.items()},
-                "on_start": {str(i): x.tolist() for i, x in self._on_start.items()}}
+                **self.views.to_json()}
 
     def restore(self, data: dict) -> None:
         """Put back what :meth:`to_json` saved."""
         self._longest_view = {int(k): float(x) for k, x in data.get("longest", {}).items()}
         self._partial = {int(i) for i in data.get("partial", [])}
         self._whole_view = {int(k): np.array(x, dtype=float) for k, x in data.get("whole", {}).items()}
-        self._on_start = {int(k): np.array(x, dtype=float) for k, x in data.get("on_start", {}).items()}
+        self.views.restore(data)
 
     def _saw_whole(self, node_id: int, sides: np.ndarray) -> None:
         seen = self._whole_view.get(node_id)
@@ -261,18 +262,12 @@ class NodeExtents:
                     self._mark(v.id, True)
                 else:
                     self.restart(graph, v, o)  # cut-off views only, and a whole one beyond them (docstring)
-            self._note_on_start(graph, v, o.box)
-
-    def _note_on_start(self, graph: ObjectGraph, v: Node, box: np.ndarray) -> None:
-        start = graph.started.get(v.id)
-        began = start[0] if start is not None else v.footprint  # unchanged yet: as the pass found it
-        if began is not None and inside(box, began, NOISE_PAD):  # (a node new in the pass: refinements skip it)
-            self._on_start[v.id] = union(self._on_start[v.id], box) if v.id in self._on_start else box.copy()
+            self.views.note(graph, v, o.box)
 
     def shown_on_start(self, graph: ObjectGraph) -> dict[int, np.ndarray]:
         """Per older node not of a category known to be small: the box round its views this
         pass that lay on the footprint the pass began with (:mod:`~bomc_bt.graph.refinement`)."""
-        return {i: box for i, box in self._on_start.items()
+        return {i: box for i, box in self.views.on_start().items()
                 if i in graph.nodes and not self._small_category(graph, graph.nodes[i].category)}
 
     @staticmethod

@@ -30,6 +30,7 @@ the camera comes by, which decides it during the pass.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
@@ -37,6 +38,7 @@ import numpy as np
 
 from bomc_bt.graph.brought_back import BACK_OF, brought_back
 from bomc_bt.graph.extents import BIG_MARGIN
+from bomc_bt.graph.footprints import longest_side, overlapping, union
 from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.looks import look_pairs, looks_apart
 from bomc_bt.graph.parts import part_pairs, parts_of_gone, reference_lengths
@@ -98,7 +100,9 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
 
 def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float) -> list[Event]:
     """Two nodes the pass saw that are the two ends of one object become one, in the middle:
-    by the size the category shows this pass, then by the size of an object the pass removed
+    by the size the category shows this pass (a node of an earlier pass whose views reached
+    beyond the footprint it began with, by the floor they covered:
+    :meth:`~bomc_bt.graph.pass_views.PassViews.moved_off`), then by the size of an object the pass removed
     whose parts they are (:func:`~bomc_bt.graph.parts.parts_of_gone`: carried off and seen in
     two parts at its new place, it then pairs with its old node as a move)."""
     if not policy.extents.boxes or not policy.params.separate_neighbours:
@@ -108,7 +112,19 @@ def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: f
     reference = reference_lengths(seen, extents.longest_whole(graph), policy.params.distance, BIG_MARGIN)
     big = {c for c, length in reference.items() if length > policy.params.distance(c) + BIG_MARGIN}
     touch, seen_apart = policy.params.footprint_touch, policy.co_observed.seen_apart
-    for a, b in part_pairs(seen, reference, BIG_MARGIN, seen_apart, big, touch):
+    now = {v.id: box for v in seen if (box := extents.views.moved_off(graph, v, session)) is not None}
+    shown = [dataclasses.replace(v, footprint=now[v.id]) if v.id in now else v for v in seen]
+    joined: set[int] = set()
+    for a, b in part_pairs(shown, reference, BIG_MARGIN, seen_apart, big, touch):
+        a, b = graph.nodes[a.id], graph.nodes[b.id]
+        joined |= {a.id, b.id}
+        for v in (a, b):  # an older node's object stands where this pass saw it, not on its old floor
+            if v.id in now:
+                graph.set_footprint(v, now[v.id])
+        events += _join(policy, graph, a, b, session, stamp)
+    for a, b in _second_nodes(policy, graph, {i: box for i, box in now.items() if i not in joined}, reference,
+                              session, joined, big):
+        graph.set_footprint(a, now[a.id])
         events += _join(policy, graph, a, b, session, stamp)
     gone = [v for v in graph.removed_this_session() if v.first_session < session]
     arrivals = [v for v in graph.nodes.values() if v.first_session == session]
@@ -117,6 +133,37 @@ def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: f
                               lambda c: policy.params.distance(c) + BIG_MARGIN):
         events += _join(policy, graph, a, b, session, stamp)
     return events
+
+
+def _second_nodes(policy: RobustPolicy, graph: ObjectGraph, now: dict[int, np.ndarray],
+                  reference: dict[str, float], session: int, joined: set[int],
+                  big: set[str]) -> list[tuple[Node, Node]]:
+    """(older node, node added this pass) pairs of one ``big`` object: the floor this pass's views of
+    the older node covered beyond its old footprint (``now``) and the added node's footprint
+    overlap as one object's views do (``footprint_overlap``), together no longer than one
+    object of the kind (``reference`` plus the margin and what an occluder hides), and no
+    frame showed the two apart. The object moved a little: the old node followed the part
+    of it that lay against its old floor, and the rest became a node of its own
+    (:mod:`bomc_bt.graph.pass_views`). Nearest first, each node in one pair at most, none
+    of the ``joined`` (parts already)."""
+    params, seen_apart = policy.params, policy.co_observed.seen_apart
+    candidates = []
+    for a in (graph.nodes[i] for i in sorted(now) if i in graph.nodes):
+        length = reference.get(a.category) if a.category in big else None
+        for b in graph.nodes.values():
+            if b.first_session != session or b.category != a.category or b.footprint is None or length is None \
+                    or b.id in joined or seen_apart(a.id, b.id):
+                continue
+            joint = longest_side(union(now[a.id], b.footprint))
+            if joint <= length + BIG_MARGIN + params.footprint_touch \
+                    and overlapping(now[a.id][None], b.footprint, params.footprint_overlap)[0]:
+                candidates.append((float(np.hypot(*(a.position[:2] - b.position[:2]))), a.id, b.id, a, b))
+    pairs, used = [], set()
+    for _, _, _, a, b in sorted(candidates, key=lambda c: c[:3]):
+        if a.id not in used and b.id not in used:
+            pairs.append((a, b))
+            used |= {a.id, b.id}
+    return pairs
 
 
 def _join(policy: RobustPolicy, graph: ObjectGraph, a: Node, b: Node, session: int, stamp: float) -> list[Event]:
