@@ -42,7 +42,7 @@ from bomc_bt.graph.footprints import longest_side, overlapping, union
 from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.looks import look_pairs, looks_apart
 from bomc_bt.graph.parts import part_pairs, parts_of_gone, reference_lengths
-from bomc_bt.graph.records import Event, Node
+from bomc_bt.graph.records import PRESENT, Event, Node
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.returns import moves_taken_back
 
@@ -91,8 +91,10 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     near = relocation_pairs(removed, arrivals, policy.params.relocation_radius,
                             lambda v, a: looks_apart(v, a, tolerance))
     paired = {n.id for pair in near for n in pair}
+    unseen = [v for v in graph.nodes.values()
+              if v.state == PRESENT and v.first_session < session and v.last_session != session]
     far = look_pairs([v for v in removed if v.id not in paired], [a for a in arrivals if a.id not in paired],
-                     tolerance, list(graph.nodes.values()))
+                     tolerance, list(graph.nodes.values()), unseen, policy.params.move_radius)
     for v, arrival in sorted(near + far, key=lambda p: p[0].id):
         events.extend(policy.moved_to(graph, v, arrival, session, stamp))
     return events
