@@ -168,7 +168,8 @@ class AssociationParams:
     # [-] robust: how far apart two colours may lie (chromaticity: r and g over r + g + b) and be
     # one object's look; colours that differ part a pair by position (a move in the pass or a
     # pair when it ends), and a removal and an addition left whose looks match each other, no
-    # other and few of their kind are one object moved, at any distance (bomc_bt.graph.looks); 0: off
+    # other and few of their kind are one object moved, at any distance, unless a node of their look the
+    # pass never saw stands within move_radius of the addition (bomc_bt.graph.looks); 0: off
     colour_tolerance: float = 0.04
     # [m] robust: when a pass ends, a node it added this near (planar) where an earlier pass
     # removed one of its category on evidence of absence, not seen since, and of its look where
