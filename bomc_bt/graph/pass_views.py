@@ -10,7 +10,7 @@ answers them wrongly:
 
 - Did the node shift because more of the object came into view (a refinement), or did
   the object move? Views of this pass that lay on the footprint the pass began with say
-  the object still stood there (:meth:`PassViews.shown_on_start`,
+  the object still stood there (:meth:`PassViews.on_start`,
   :mod:`bomc_bt.graph.refinement`).
 - Are two nodes the two ends of one object (:mod:`bomc_bt.graph.parts`)? A table pushed
   1 m along and across (bookstore map at 0.04 m, generated world seed 9005, pass 5): the
