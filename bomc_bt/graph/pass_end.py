@@ -41,7 +41,7 @@ from bomc_bt.graph.extents import BIG_MARGIN
 from bomc_bt.graph.footprints import longest_side, overlapping, union
 from bomc_bt.graph.identity import keeper
 from bomc_bt.graph.looks import look_pairs, looks_apart
-from bomc_bt.graph.parts import part_pairs, parts_of_gone, reference_lengths
+from bomc_bt.graph.parts import part_pairs, parts_of_gone
 from bomc_bt.graph.records import PRESENT, Event, Node
 from bomc_bt.graph.relocations import relocation_pairs
 from bomc_bt.graph.returns import moves_taken_back
@@ -111,7 +111,7 @@ def _join_parts(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: f
         return []
     seen = [v for v in graph.nodes.values() if v.last_session == session]
     extents, events = policy.extents, []
-    reference = reference_lengths(seen, extents.longest_whole(graph), policy.params.distance, BIG_MARGIN)
+    reference = policy.reference(graph, session)
     big = {c for c, length in reference.items() if length > policy.params.distance(c) + BIG_MARGIN}
     touch, seen_apart = policy.params.footprint_touch, policy.co_observed.seen_apart
     now = {v.id: box for v in seen if (box := extents.views.moved_off(graph, v, session)) is not None}

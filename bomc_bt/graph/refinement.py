@@ -53,7 +53,6 @@ import numpy as np
 
 from bomc_bt.graph.extents import BIG_MARGIN
 from bomc_bt.graph.footprints import NOISE_PAD, box_gap, inside, longest_side, union
-from bomc_bt.graph.parts import reference_lengths
 from bomc_bt.graph.records import Event
 
 if TYPE_CHECKING:
@@ -96,8 +95,7 @@ def ends_of_one(graph: ObjectGraph, session: int) -> Callable[[str, np.ndarray, 
     """:func:`end_of_one` for ``refinements``' ``one_object``, with each category's length by
     this pass's views (as the pass's end joins parts) and what an occluder hides
     (``footprint_touch``); for the robust policy, whose extents keep footprints."""
-    seen = [v for v in graph.nodes.values() if v.last_session == session]
-    reference = reference_lengths(seen, graph.policy.extents.longest_whole(graph), graph.params.distance, BIG_MARGIN)
+    reference = graph.policy.reference(graph, session)
 
     def one_object(category: str, began: np.ndarray, ended: np.ndarray) -> bool:
         return end_of_one(began, ended, reference.get(category), graph.params.distance(category) + BIG_MARGIN,

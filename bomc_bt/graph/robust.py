@@ -235,7 +235,7 @@ class RobustPolicy:
                         or self.extents.separate(graph, other, o) or self.extents.apart(v, other, before[vid][0]):
                     continue
                 if self.params.separate_neighbours:
-                    reference = self._reference(graph, session) if reference is None else reference
+                    reference = self.reference(graph, session) if reference is None else reference
                     if longer_than_one(v, other, reference, self.params.distance, BIG_MARGIN,
                                        self.params.footprint_touch):
                         continue
@@ -250,7 +250,7 @@ class RobustPolicy:
                 matched.add(keep.id)
         return events
 
-    def _reference(self, graph: ObjectGraph, session: int) -> dict[str, float]:
+    def reference(self, graph: ObjectGraph, session: int) -> dict[str, float]:
         """How long one object of each category is, by this pass's views (as when the pass ends)."""
         seen = [v for v in graph.nodes.values() if v.last_session == session]
         return reference_lengths(seen, self.extents.longest_whole(graph), self.params.distance, BIG_MARGIN)
