@@ -4,6 +4,7 @@ colour can find when a pass ends (bomc_bt.graph.looks, bomc_bt.perception.colour
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from bomc_bt.graph import AssociationParams, Node, ObjectGraph, Observation
 from bomc_bt.graph.looks import blend, look_pairs
@@ -124,6 +125,51 @@ def test_a_chair_of_another_colour_within_move_radius_is_no_move_whichever_place
         assert same == [("moved", 0)], seen_after
         _, blind = chair_carried(2.0, BLUE, tolerance=0.0, seen_after=seen_after)  # colours off: by place
         assert blind == [("moved", 0)], seen_after
+
+
+def chair_swapped(tolerance: float = 0.04, match_tolerance: float = 0.08) -> tuple[ObjectGraph, list]:
+    """A blue chair seen in pass 1 at (0, 0); in pass 2 a red chair stands 0.55 m from it,
+    within delta_c, seen again and again, and the blue chair stands 2.6 m away."""
+    params = AssociationParams(confirm_misses=1, confirm_detections=2, colour_tolerance=tolerance,
+                               colour_match_tolerance=match_tolerance)
+    first, history = ObjectGraph(params), []
+    others = [GREEN, GREY, ORANGE, RED]  # the floor's other chairs, far off
+    for t in (0.0, 1.0, 2.0):
+        seen = [Observation("chair", np.array([0.0, 0.0, 0.45]), 0.9, 500, colour=BLUE)]
+        seen += [Observation("chair", np.array([-10.0 * (k + 1), 30.0, 0.45]), 0.9, 500, colour=c)
+                 for k, c in enumerate(others)]
+        history += first.associate(seen, sorted(first.nodes), 1, t)
+    g = ObjectGraph(params, list(first.nodes.values()))
+    for k in range(12):  # the camera looks at the blue chair's place: a red chair beside it
+        red = [Observation("chair", np.array([0.55, 0.0, 0.45]), 0.9, 500, colour=RED)]
+        history += g.associate(red, [0] if 0 in g.nodes else [], 2, 10.0 + k)
+    for k in range(3):
+        blue = [Observation("chair", np.array([0.0, 2.6, 0.45]), 0.9, 500, colour=BLUE)]
+        history += g.associate(blue, [], 2, 30.0 + k)
+    history += g.pair_relocations(2, 40.0)
+    return g, sorted((c.kind, c.node_id) for c in net_changes(history, 1, lambda _c: 0.7))
+
+
+def test_a_chair_of_another_colour_where_one_stood_is_another_chair_not_the_same_one_seen_again():
+    # Traced on a generated 36 x 28 m office (seed 9105, pass 3): a blue chair carried 2.6 m
+    # and a red one brought to 0.55 m from its old place. The red chair's views matched the
+    # blue chair's node by place, so that node stayed (no change, its colour turning red)
+    # and the blue chair at its new place was reported new: two changes wrong.
+    g, changes = chair_swapped()
+    red = next(n.id for n in g.nodes.values() if np.allclose(n.position[:2], [0.55, 0.0], atol=0.05))
+    assert changes == [("added", red), ("moved", 0)]
+    assert np.allclose(g.nodes[0].position[:2], [0.0, 2.6], atol=0.05) and np.allclose(g.nodes[0].colour, BLUE)
+    assert np.allclose(g.nodes[red].colour, RED)
+    _, blind = chair_swapped(tolerance=0.0)  # colours off: by place, the red chair is the blue one's node
+    assert [k for k, _ in blind] == ["added"]
+    _, by_place = chair_swapped(match_tolerance=0.0)  # only the match by colour off
+    assert [k for k, _ in by_place] == ["added"]
+    _, wide = chair_swapped(match_tolerance=0.3)  # a camera whose colours stray: red and blue still differ
+    assert [k for k, _ in wide] == ["added", "moved"]
+    _, wider = chair_swapped(match_tolerance=0.5)  # wider than red from blue (0.47): by place
+    assert [k for k, _ in wider] == ["added"]
+    with pytest.raises(ValueError, match="colour_match_tolerance"):
+        AssociationParams(colour_match_tolerance=0.6)
 
 
 def test_a_bin_of_another_colour_gone_nearer_the_arrival_does_not_hide_the_one_that_moved():

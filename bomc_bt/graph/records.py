@@ -171,6 +171,11 @@ class AssociationParams:
     # other and few of their kind are one object moved, at any distance, unless a node of their look the
     # pass never saw stands within move_radius of the addition (bomc_bt.graph.looks); 0: off
     colour_tolerance: float = 0.04
+    # [-] robust: how far a view's colour may lie from a node's (chromaticity) and the view still
+    # match that node by position; farther, it is another object (a red chair put where a blue one
+    # stood). Wider than colour_tolerance: one view's colour strays more than a node's running
+    # mean of many; 0, or colour_tolerance 0: colour never refuses a match
+    colour_match_tolerance: float = 0.08
     # [m] robust: when a pass ends, a node it added this near (planar) where an earlier pass
     # removed one of its category on evidence of absence, not seen since, and of its look where
     # both are known, is that object brought back: never paired as another's move
@@ -261,6 +266,8 @@ class AssociationParams:
             raise ValueError("replace_sightings must be a whole number 0 to 1000")
         if not 0.0 <= self.colour_tolerance <= 0.5:
             raise ValueError("colour_tolerance must be in [0, 0.5] (0 turns it off)")
+        if not 0.0 <= self.colour_match_tolerance <= 0.5:
+            raise ValueError("colour_match_tolerance must be in [0, 0.5] (0 turns it off)")
         if not 0.0 <= self.return_radius <= 2.0:
             raise ValueError("return_radius must be in [0, 2] m (0 turns it off)")
 

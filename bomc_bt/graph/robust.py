@@ -21,7 +21,9 @@
 * *Neighbours stay apart* (``separate_neighbours``). A view whose floor box lies clear of a small node's
   footprint is another object, however near (chairs 0.8 m apart round a table, delta_c 0.7 m), once that
   footprint holds a whole view (not only cut-off ones). A view nearer a sighting begun beside a node's own view
-  of one frame goes to that sighting, not to the node (``TentativeSightings.claims``).
+  of one frame goes to that sighting, not to the node (``TentativeSightings.claims``). Nor does a view match
+  a node whose colour lies beyond ``colour_match_tolerance`` of its own: a red chair put where a blue one
+  stood is another chair, and the blue one's node is left to its misses.
 * *Moves keep their id.* An unmatched observation farther than delta_c from every same-category node but
   within ``move_radius`` of a same-category node that was removed earlier in this session is taken to be that
   object moved: it keeps its id and the event is ``moved`` with the previous position: identity across a
@@ -176,7 +178,9 @@ class RobustPolicy:
               ) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per observation: ids and squared distances of the nodes it may match (not those
         whose small object's footprint its view lies clear of: a neighbour, not the same;
+        nor one whose colour tells it apart from the view's: another object in its place;
         nor one beside which a nearer sighting waits: :meth:`TentativeSightings.claims`)."""
+        tolerance = self.params.colour_match_tolerance if self.params.colour_tolerance > 0.0 else 0.0
         gates = [self.gate(o) for o in obs]
         reaches = [max(self.extents.reach(o), g) for o, g in zip(obs, gates, strict=True)]
         boxes = [o.box for o in obs] if self.extents.boxes else None
@@ -185,6 +189,7 @@ class RobustPolicy:
         out = []
         for o, g, (ids, d2) in zip(obs, gates, near, strict=True):
             keep = [not self.extents.separate(graph, graph.nodes[int(i)], o)
+                    and not looks.looks_apart(graph.nodes[int(i)], o, tolerance)
                     and not self.tentative.claims(o, int(i), float(np.sqrt(d)), g, stamp)
                     for i, d in zip(ids, d2, strict=True)]
             out.append((ids, d2) if all(keep) else (ids[keep], d2[keep]))
