@@ -93,8 +93,9 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     paired = {n.id for pair in near for n in pair}
     unseen = [v for v in graph.nodes.values()
               if v.state == PRESENT and v.first_session < session and v.last_session != session]
+    earlier = [v for v in graph.nodes.values() if v.state == PRESENT and v.first_session < session]
     far = look_pairs([v for v in removed if v.id not in paired], [a for a in arrivals if a.id not in paired],
-                     tolerance, list(graph.nodes.values()), unseen, policy.params.move_radius)
+                     tolerance, list(graph.nodes.values()), unseen, policy.params.move_radius, earlier)
     for v, arrival in sorted(near + far, key=lambda p: p[0].id):
         events.extend(policy.moved_to(graph, v, arrival, session, stamp))
     return events
