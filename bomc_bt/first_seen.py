@@ -52,7 +52,7 @@ from bomc_bt.errors import BomcError
 from bomc_bt.graph import REMOVED, Event, Node
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key, unpack_mask
-from bomc_bt.sightings import unpack_sightings
+from bomc_bt.sightings import other_looks, unpack_sightings
 
 FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail (and a pass end's ``updated`` verdict)
 SIGHTED_IN = "sighted_in"  # beside it: the pass that had detected the object there (bomc_bt.sightings)
@@ -90,6 +90,11 @@ class SeenBefore:
     # in which its sightings claim nothing (see :meth:`mark`)
     removed_there: dict[str, np.ndarray] = field(default_factory=dict)
     removed_radius: float = 0.0
+    # per category, the previous pass's sightings not widened, and the (x, y) and colours of
+    # the nodes it left on the map: whose views those were (bomc_bt.sightings.other_looks)
+    sighting_cells: dict[str, np.ndarray] = field(default_factory=dict)
+    looks: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    colour_tolerance: float = 0.0  # [-] association.colour_tolerance (0: colours off)
 
     def saw(self, xy: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """Bool per (x, y) point: an earlier pass saw that place (off the map: never); with
@@ -122,15 +127,17 @@ class SeenBefore:
                 marked += 1
         return marked
 
-    def verdict(self, category: str, position: np.ndarray) -> dict:
+    def verdict(self, category: str, position: np.ndarray, colour: np.ndarray | None = None) -> dict:
         """What an addition of ``category`` at ``position`` (x, y[, z]) is: ``{"first_seen":
         True}`` where no earlier pass saw the place, with ``"sighted_in"`` where the previous
         pass detected an object of its kind there (and did not see such an object go from
-        there); ``{"first_seen": False}``: an addition."""
+        there, nor were those detections all of a node whose look differs from ``colour``,
+        the addition's, where known); ``{"first_seen": False}``: an addition."""
         xy = np.asarray(position, dtype=float)[:2]
         if not self.saw(xy)[0]:
             return {FIRST_SEEN: True}
-        if self.sighted_here(category, xy) and not self._removed_near(category, xy):
+        if self.sighted_here(category, xy) and not self._removed_near(category, xy) \
+                and not self._other_looks(category, xy, colour):
             return {FIRST_SEEN: True, SIGHTED_IN: self.sighted_in}
         return {FIRST_SEEN: False}
 
@@ -152,10 +159,17 @@ class SeenBefore:
         for v in arrivals:
             if v.id not in known:
                 continue
-            verdict = self.verdict(v.category, v.position)
+            verdict = self.verdict(v.category, v.position, v.colour)
             if verdict[FIRST_SEEN] != known[v.id]:
                 out.append((v, verdict))
         return out
+
+    def _other_looks(self, category: str, xy: np.ndarray, colour: np.ndarray | None) -> bool:
+        """Whether the previous pass's sightings near ``xy`` were all of a node that looks unlike
+        ``colour`` (:func:`~bomc_bt.sightings.other_looks`)."""
+        mask = self.sighting_cells.get(category)
+        return mask is not None and other_looks(mask, self.grid, xy, self.removed_radius, colour,
+                                                self.looks.get(category), self.colour_tolerance)
 
     def _removed_near(self, category: str, xy: np.ndarray) -> bool:
         """Whether the previous pass removed a node of ``category`` on evidence of absence
@@ -171,10 +185,11 @@ class SeenBefore:
 
 
 def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float,
-                     sighting_radius: float = 0.0) -> SeenBefore | None:
+                     sighting_radius: float = 0.0, colour_tolerance: float = 0.0) -> SeenBefore | None:
     """What the recorded passes before ``session`` saw, or None where it is not known (see the
     module docstring: no earlier pass, or one without a saved mask); with ``sighting_radius``
-    (m, > 0) also where the previous one detected objects (:mod:`bomc_bt.sightings`)."""
+    (m, > 0) also where the previous one detected objects (:mod:`bomc_bt.sightings`), and with
+    ``colour_tolerance`` (> 0) the looks of the nodes it left there."""
     earlier = [s.number for s in store.sessions() if s.number < session]
     if not earlier:
         return None
@@ -189,7 +204,10 @@ def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float,
     seen = SeenBefore(grid, widen_into_walls(union, grid, margin))
     if sighting_radius > 0.0:
         seen.sighted_in = max(earlier)
-        seen.sighted = previous_sightings(store, seen.sighted_in, grid, sighting_radius)
+        seen.sighting_cells = previous_sightings(store, seen.sighted_in, grid)
+        seen.sighted = {c: inflate_mask(m, sighting_radius / grid.resolution) for c, m in seen.sighting_cells.items()}
+        if colour_tolerance > 0.0:
+            seen.looks, seen.colour_tolerance = looks_after(store, seen.sighted_in), colour_tolerance
         seen.removed_there = removed_on_evidence(store, seen.sighted_in, sighting_radius)
         seen.removed_radius = sighting_radius
     return seen
@@ -256,15 +274,29 @@ def widen_into_walls(looked: np.ndarray, grid: OccupancyGrid, margin: float) -> 
     return looked.astype(bool) | widened
 
 
-def previous_sightings(store, session: int, grid: OccupancyGrid, radius: float) -> dict[str, np.ndarray]:
-    """Pass ``session``'s sightings, each widened by ``radius`` (m); none where it saved none
-    (a pass recorded before they were); a mask not of this map is a corrupt store."""
+def looks_after(store, session: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per category, the (x, y) where the nodes of known colour stood at the end of pass
+    ``session`` and their colours (as the store holds them now: the start of the next pass)."""
+    colours = {n.id: n.colour for n in store.nodes(include_removed=True) if n.colour is not None}
+    out: dict[str, tuple[list, list]] = {}
+    for n in store.graph_after(session):
+        if n.id in colours:
+            xy, looks = out.setdefault(n.category, ([], []))
+            xy.append(np.asarray(n.position, dtype=float)[:2])
+            looks.append(colours[n.id])
+    return {c: (np.array(xy).reshape(-1, 2), np.array(looks).reshape(-1, 2)) for c, (xy, looks) in out.items()}
+
+
+def previous_sightings(store, session: int, grid: OccupancyGrid, radius: float = 0.0) -> dict[str, np.ndarray]:
+    """Pass ``session``'s sightings (the cells observations' centres fell in), each widened by
+    ``radius`` (m); none where it saved none (a pass recorded before they were); a mask not
+    of this map is a corrupt store."""
     try:
         masks = unpack_sightings(store.get_progress(sightings_key(session)), grid.data.shape)
     except (ValueError, TypeError, zlib.error) as exc:
         raise BomcError(f"corrupt site store: the saved sightings of session {session} are not masks of this map "
                         f"({exc})", store.path, f"progress.{sightings_key(session)}") from None
-    return {c: inflate_mask(m, radius / grid.resolution) for c, m in (masks or {}).items()}
+    return {c: inflate_mask(m, radius / grid.resolution) if radius > 0.0 else m for c, m in (masks or {}).items()}
 
 
 def saved_coverage(store, session: int, shape: tuple[int, int], key: str | None = None) -> np.ndarray | None:

@@ -193,7 +193,8 @@ def _replay_into_site(bag, index, reader, site_dir: Path, session: int, config: 
                                 occlusion_check=config.association.mode != "paper", near_range=config.budget.view_range,
                                 seen_before=load_seen_before(store, session, grid,
                                                              config.association.first_seen_margin,
-                                                             config.association.sighting_radius))
+                                                             config.association.sighting_radius,
+                                                             config.association.colour_tolerance))
         recorded = RecordedPass(grid, index.frames[0].stamp, _path_length(index))
         ctx = MissionContext(robot=recorded, config=config, site=site, mission="monitor", session=session,
                              seed=seed, store=store, graph=graph, perception=perception)

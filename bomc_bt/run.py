@@ -322,7 +322,8 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
                                 near_range=config.budget.view_range,
                                 seen_before=load_seen_before(store, session, grid,
                                                              config.association.first_seen_margin,
-                                                             config.association.sighting_radius))
+                                                             config.association.sighting_radius,
+                                                             config.association.colour_tolerance))
         restored = resume and restore_pass(store, session, robot, perception)  # bomc_bt.pass_resume
         ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
                              seed=seed, store=store, graph=graph, perception=perception, dock=dock, resume=resume,

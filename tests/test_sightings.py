@@ -17,7 +17,7 @@ from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.change_evaluation import reported_changes, score_changes, true_changes
 from bomc_bt.errors import BomcError
 from bomc_bt.first_seen import FIRST_SEEN, SIGHTED_IN, SeenBefore, load_seen_before
-from bomc_bt.graph import AssociationParams, Event, ObjectGraph
+from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.monitoring import Perception
 from bomc_bt.pass_resume import coverage_key, pack_mask, sightings_key
@@ -206,3 +206,38 @@ def test_a_resumed_pass_has_the_sightings_of_its_snapshot_and_of_the_frames_afte
     for c in resumed.masks:
         assert np.array_equal(resumed.masks[c], before.masks[c])
     assert resumed.since == before.since
+
+
+def test_a_chair_of_another_colour_where_the_previous_pass_saw_one_is_added_not_first_seen(tmp_path):
+    """Seed 9105 (36 x 28 m office), pass 3: a blue chair carried 2.6 m and a red one brought
+    to 0.63 m from where it had stood. Pass 2's views of the blue chair fell within the
+    sighting radius of the red chair's place, and the red chair, a true addition, was called
+    first seen. Sightings there that were all of a node of another look claim nothing; those
+    of a node of the arrival's own look, or an arrival without a colour, still do."""
+    blue, red = np.array([0.184, 0.245]), np.array([0.653, 0.184])
+    grid = grid_10m()
+    one, two = Sightings(grid), Sightings(grid)
+    for s in (one, two):
+        s.add([obs(2.0), obs(2.25), obs(6.0)])  # the blue chair's views, one off its centre; the red chair's
+    nodes = [Node(5, "chair", np.array([2.0, 5.0, 0.4]), 0.9, 1, 2, colour=blue),
+             Node(6, "chair", np.array([6.0, 5.0, 0.4]), 0.9, 1, 2, colour=red)]
+    store = SiteStore(tmp_path / "site.db")
+    everything = pack_mask(np.ones(grid.data.shape, dtype=np.uint8))
+    for n, s in ((1, one), (2, two)):
+        store.begin_session(n, {"stamp": 0.0})
+        store.record([added(v.id, v.position[0], session=1) for v in nodes] if n == 1 else [], nodes)
+        saved = {coverage_key(n): everything, sightings_key(n): s.packed()}
+        store.end_session(n, "succeeded", {"stamp": 1.0}, (), saved)
+    with store:
+        seen = load_seen_before(store, 3, grid, 0.3, 0.35, colour_tolerance=0.04)
+        at = np.array([2.55, 5.0, 0.4])  # 0.3 m from the off-centre view, 0.55 m from the blue node
+        assert seen.verdict("chair", at, red) == {FIRST_SEEN: False}
+        assert seen.verdict("chair", at, blue) == {FIRST_SEEN: True, SIGHTED_IN: 2}  # the blue chair's own look
+        assert seen.verdict("chair", at) == {FIRST_SEEN: True, SIGHTED_IN: 2}  # no colour: as before
+        assert seen.verdict("chair", np.array([6.2, 5.0]), red)[FIRST_SEEN]  # the red chair's views: there all along
+        arrival = Node(9, "chair", at, 0.9, 3, 3, colour=red)  # added where the sighting did not reach
+        history = [Event("added", 9, "chair", np.array([2.7, 5.0, 0.4]), 3, 5.0, detail={FIRST_SEEN: False})]
+        assert seen.final_verdicts([arrival], history) == []  # judged where it stands: still an addition
+        blind = load_seen_before(store, 3, grid, 0.3, 0.35)  # colours off
+        assert blind.verdict("chair", at, red) == {FIRST_SEEN: True, SIGHTED_IN: 2}
+        assert [v for _, v in blind.final_verdicts([arrival], history)] == [{FIRST_SEEN: True, SIGHTED_IN: 2}]
