@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bomc_bt.errors import BomcError
-from bomc_bt.graph import REMOVED, Event, Node
+from bomc_bt.graph import REMOVED, AssociationParams, Event, Node
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key, unpack_mask
 from bomc_bt.sightings import other_looks, unpack_sightings
@@ -272,6 +272,13 @@ def widen_into_walls(looked: np.ndarray, grid: OccupancyGrid, margin: float) -> 
     """
     widened = inflate_mask(looked, margin / grid.resolution) & grid.occupied_mask()
     return looked.astype(bool) | widened
+
+
+def seen_before_for(store, session: int, grid: OccupancyGrid, params: AssociationParams) -> SeenBefore | None:
+    """:func:`load_seen_before` with the association's ``first_seen_margin``, ``sighting_radius``
+    and ``colour_tolerance`` (what a monitor pass and a replayed one load)."""
+    return load_seen_before(store, session, grid, params.first_seen_margin, params.sighting_radius,
+                            params.colour_tolerance)
 
 
 def looks_after(store, session: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:

@@ -166,7 +166,7 @@ def _path_length(index) -> float:
 
 def _replay_into_site(bag, index, reader, site_dir: Path, session: int, config: Config, categories: list[str],
                       result: ReplayResult, *, rate, every: bool, seed: int, clock, wrapper) -> None:
-    from bomc_bt.first_seen import load_seen_before
+    from bomc_bt.first_seen import seen_before_for
     from bomc_bt.generations import lock_for_monitor
     from bomc_bt.grid import load_map
     from bomc_bt.mission import MissionContext
@@ -191,10 +191,7 @@ def _replay_into_site(bag, index, reader, site_dir: Path, session: int, config: 
         graph = store.load_graph(config.association)
         perception = Perception(timed, timed, categories, config.projection, graph, store, session, grid,
                                 occlusion_check=config.association.mode != "paper", near_range=config.budget.view_range,
-                                seen_before=load_seen_before(store, session, grid,
-                                                             config.association.first_seen_margin,
-                                                             config.association.sighting_radius,
-                                                             config.association.colour_tolerance))
+                                seen_before=seen_before_for(store, session, grid, config.association))
         recorded = RecordedPass(grid, index.frames[0].stamp, _path_length(index))
         ctx = MissionContext(robot=recorded, config=config, site=site, mission="monitor", session=session,
                              seed=seed, store=store, graph=graph, perception=perception)

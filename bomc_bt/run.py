@@ -284,7 +284,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
                         hooks: list[Callable] = (), context_hooks: list[Callable] = (),
                         max_time: float = 4 * 3600.0) -> MissionResult:
     """One monitoring pass of session ``session`` that updates the site's object graph."""
-    from bomc_bt.first_seen import load_seen_before
+    from bomc_bt.first_seen import seen_before_for
     from bomc_bt.generations import lock_for_monitor
     from bomc_bt.grid import load_map
     from bomc_bt.mission_trees import check_mission_tree
@@ -320,10 +320,7 @@ def run_monitor_mission(factory: RobotFactory, site_dir: str | Path, session: in
         perception = Perception(detector, segmenter, categories, config.projection, graph, store, session, grid,
                                 occlusion_check=config.association.mode != "paper", robot=robot,
                                 near_range=config.budget.view_range,
-                                seen_before=load_seen_before(store, session, grid,
-                                                             config.association.first_seen_margin,
-                                                             config.association.sighting_radius,
-                                                             config.association.colour_tolerance))
+                                seen_before=seen_before_for(store, session, grid, config.association))
         restored = resume and restore_pass(store, session, robot, perception)  # bomc_bt.pass_resume
         ctx = MissionContext(robot=robot, config=config, site=site, mission="monitor", session=session,
                              seed=seed, store=store, graph=graph, perception=perception, dock=dock, resume=resume,
