@@ -165,8 +165,9 @@ class SeenBefore:
         return out
 
     def _other_looks(self, category: str, xy: np.ndarray, colour: np.ndarray | None) -> bool:
-        """Whether the previous pass's sightings near ``xy`` were all of a node that looks unlike
-        ``colour`` (:func:`~bomc_bt.sightings.other_looks`)."""
+        """Whether the previous pass's sightings near ``xy`` (within the sighting radius, which
+        ``removed_radius`` holds) were all of a node that looks unlike ``colour``
+        (:func:`~bomc_bt.sightings.other_looks`)."""
         mask = self.sighting_cells.get(category)
         return mask is not None and other_looks(mask, self.grid, xy, self.removed_radius, colour,
                                                 self.looks.get(category), self.colour_tolerance)

@@ -101,12 +101,14 @@ def look_pairs(removed: Sequence[Node], arrivals: Sequence[Node], tolerance: flo
         twins = [a for a in arrivals if a.category == v.category and alike(v.colour, a.colour, tolerance)]
         if len(twins) != 1:
             continue
-        near = [w for w in unseen if w.category == v.category and alike(w.colour, twins[0].colour, tolerance)
-                and float(np.hypot(*(w.position[:2] - twins[0].position[:2]))) <= reach]
-        rivals = [w for w in removed if w.category == v.category and alike(w.colour, twins[0].colour, tolerance)]
-        near += [w for w in earlier if w.category == v.category and w.first_session > v.last_session
-                 and alike(w.colour, twins[0].colour, tolerance)]
-        if len(rivals) == 1 and not near and coincidence(v, removed, arrivals, population, tolerance) < 1.0:
+        look = twins[0].colour
+        rivals = [w for w in removed if w.category == v.category and alike(w.colour, look, tolerance)]
+        hidden_beside = [w for w in unseen if w.category == v.category and alike(w.colour, look, tolerance)
+                         and float(np.hypot(*(w.position[:2] - twins[0].position[:2]))) <= reach]
+        found_since = [w for w in earlier if w.category == v.category and w.first_session > v.last_session
+                       and alike(w.colour, look, tolerance)]
+        if len(rivals) == 1 and not hidden_beside and not found_since \
+                and coincidence(v, removed, arrivals, population, tolerance) < 1.0:
             pairs.append((v, twins[0]))
     return pairs
 
