@@ -19,6 +19,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from bomc_bt.first_seen import gone_before
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.walls import Walls
@@ -341,6 +342,8 @@ seen before it is written. With a store, every frame
             self.graph.sighted_before = self.seen_before.sighted_here
         if self.store is not None:  # two objects an earlier pass saw side by side stay two
             self.graph.keep_apart(self.session, earlier_co_observed(self.store, self.session))
+            if isinstance(getattr(self.graph, "policy", None), RobustPolicy):  # one back is no other's new place
+                self.graph.policy.gone = gone_before(self.store, self.session)
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)

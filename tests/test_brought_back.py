@@ -103,3 +103,44 @@ def test_the_nodes_gone_before_a_pass_are_those_removed_on_evidence_and_not_seen
         assert [v.id for v in gone] == [1]
         assert np.allclose(gone[0].colour, RED) and np.allclose(gone[0].position[:2], [1.0, 0.0])
         assert gone_before(store, 2) == []
+
+
+def pass_with_return_beside(gone_known: bool) -> tuple[ObjectGraph, list, int, int]:
+    """Seed 9105's pass 11 on a small scale: navy chairs A at (0, 0) and B 1.4 m from it; pass
+    2 sees B go. Before pass 3, A is carried 1.6 m the other way and B is brought back to
+    its place: pass 3 sees both navy chairs new before it sees A's place empty. The policy
+    knows the nodes earlier passes saw go when ``gone_known`` (as a monitor pass gives them)."""
+    params = AssociationParams(confirm_misses=1, confirm_detections=1)
+    a, b, carried = np.array([0.0, 0.0, 0.45]), np.array([1.4, 0.0, 0.45]), np.array([-1.6, 0.0, 0.45])
+    others = [(np.array([-10.0 * (k + 1), 30.0, 0.45]), c) for k, c in enumerate((RED, GREY, GREEN))]
+    g, history = ObjectGraph(params), []
+    for t in (0.0, 1.0, 2.0):
+        seen = [Observation("chair", p, 0.9, 500, colour=BLUE) for p in (a, b)]
+        seen += [Observation("chair", p, 0.9, 500, colour=c) for p, c in others]
+        history += g.associate(seen, sorted(g.nodes), 1, t)
+    a_id, b_id = (min(g.nodes, key=lambda i, p=p: np.hypot(*(g.nodes[i].position - p)[:2])) for p in (a, b))
+    for k in range(12):  # pass 2: B's place in view, B not there
+        history += g.associate([], [b_id] if b_id in g.nodes else [], 2, 10.0 + k)
+    gone = list(g.removed_this_session())
+    if gone_known:
+        g.policy.gone = gone
+    for t in (40.0, 41.0):  # pass 3: B back (0.1 m off its old place) and A at its new place
+        history += g.associate([Observation("chair", p, 0.9, 500, colour=BLUE) for p in (b + 0.1, carried)], [], 3, t)
+    for k in range(12):  # A's old place in view, A not there
+        history += g.associate([], [a_id] if a_id in g.nodes and g.nodes[a_id].position[0] == 0.0 else [], 3,
+                               45.0 + k)
+    history += g.pair_relocations(3, 80.0, gone=gone)
+    return g, net_changes(history, 2, lambda _c: 0.7), a_id, b_id
+
+
+def test_a_chair_brought_back_beside_one_that_moved_is_not_where_that_one_went():
+    g, changes, a_id, b_id = pass_with_return_beside(gone_known=True)
+    moved = next(c for c in changes if c.kind == "moved")
+    added = next(c for c in changes if c.kind == "added")
+    assert len(changes) == 2 and moved.node_id == a_id and added.back_of == b_id
+    assert np.allclose(g.nodes[a_id].position[:2], [-1.6, 0.0])  # A's id went with A
+    # not knowing what earlier passes saw go, A's node takes the nearer navy chair, B, for its
+    # move (1.4 m against 1.6 m), and A at its new place is reported new
+    g, changes, a_id, _ = pass_with_return_beside(gone_known=False)
+    assert np.allclose(g.nodes[a_id].position[:2], [1.5, 0.1])
+    assert all(c.back_of is None for c in changes)

@@ -35,6 +35,13 @@ place is reported as that new node removed and the old one back, not as one move
 The generators move an object to a place drawn anew (only objects taken away are
 brought back to their old places), so the measurements above do not show it.
 
+During the pass the same story decides which new node an older node's confirmed absence
+folds in (:func:`stands_where_gone`): a look-alike new where an earlier pass saw one of its
+kind go is that object back, no other's new place. Traced on a 36 x 28 m office (seed 9105,
+pass 11): navy chair-11 carried 1.6 m while navy chair-5 came back to its place 1.4 m the
+other side; chair-11's node folded in the nearer new node, chair-5's, as its move, and
+chair-11 at its new place was reported added (change F1 0.250, the ideal reporter 1.000).
+
 The pass end marks each return with an ``updated`` event whose ``detail`` is
 ``{"back_of": <id of the node seen go>}`` (:data:`BACK_OF`), and the change report says so
 (:func:`back_of`; "added chair #N at (x, y), back where #M went").
@@ -47,7 +54,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from bomc_bt.graph.looks import looks_apart
-from bomc_bt.graph.records import Event, Node
+from bomc_bt.graph.records import Event, Node, Observation
 
 BACK_OF = "back_of"  # the key in an ``updated`` event's detail: the id of the node this one is back of
 
@@ -69,6 +76,14 @@ def brought_back(arrivals: Sequence[Node], gone: Sequence[Node], radius: float, 
         if near:
             back.append((a, min(near, key=lambda t: t[:2])[2]))
     return back
+
+
+def stands_where_gone(at: Node | Observation, gone: Sequence[Node], radius: float, tolerance: float) -> bool:
+    """Whether ``at`` (a node or a view) stands where :func:`brought_back` would take it for
+    one of the ``gone`` brought back: within ``radius`` of one of its category and look."""
+    return radius > 0.0 and any(
+        g.category == at.category and float(np.hypot(*(at.position[:2] - g.position[:2]))) <= radius
+        and not looks_apart(at, g, tolerance) for g in gone)
 
 
 def back_of(events: Iterable[Event]) -> dict[int, int]:

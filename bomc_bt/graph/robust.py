@@ -32,7 +32,8 @@
   into the old one, which moves there (the robot saw the chair's new place before its old one). Neither way
   beyond delta_c to a place no earlier pass looked at: that object was always there; nor between two whose
   colours tell them apart (:func:`~bomc_bt.graph.looks.looks_apart`): a yellow bin put near where a blue one
-  went is another bin. A shift while its footprint grew over the old one is no move
+  went is another bin; nor to where an earlier pass saw a look-alike go (that one is back): :mod:`~bomc_bt.graph.moves`.
+  A shift while its footprint grew over the old one is no move
   (:mod:`bomc_bt.graph.refinement`).
 * *Retract, not remove, what was barely seen.* A node matched in at most ``retract_observations`` frames in all
   (by default: never matched again after the two sightings of a look-alike that confirmed it) that misses take
@@ -51,8 +52,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from bomc_bt.graph import looks, pass_end
-from bomc_bt.graph.association import near_any, never_looked, sighted_before
+from bomc_bt.graph import looks, moves, pass_end
+from bomc_bt.graph.association import near_any
 from bomc_bt.graph.co_observed import CoObserved
 from bomc_bt.graph.confusions import confusing_node
 from bomc_bt.graph.evidence import misses_needed
@@ -82,6 +83,7 @@ class RobustPolicy:
         self.tentative = TentativeSightings(params, np.array([1.0, 1.0, params.vertical_weight]))
         self.co_observed = CoObserved()  # nodes one frame matched as two objects (never folded)
         self.replacements = Replacements(params.replace_sightings, params.confirm_interval)
+        self.gone: Sequence[Node] = ()  # nodes earlier passes saw go (first_seen.gone_before), given by the pass
 
     def gate(self, o: Observation) -> float:
         """delta_c, widened by a large object's own spread (capped at ``extent_gate`` * delta_c).
@@ -155,7 +157,7 @@ class RobustPolicy:
             o = obs[j]
             if not confirmed[k] or near_any(o, placed, self.gate(o), graph.index.scale):
                 continue
-            moved = self._move_candidate(graph, o)
+            moved = moves.removed_here(graph, o, self.gate(o), self.params, self.gone)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
             placed.append(graph.nodes[events[-1].node_id])
             if not moved:
@@ -308,29 +310,13 @@ class RobustPolicy:
             return []
         needed, run = self.misses_needed(graph, v), graph.evidence.missed(v.id, weight, place)
         if run >= needed - 1e-9 and graph.evidence.spread(v.id) >= self.params.miss_spacing:
-            arrival = self._arrival(graph, v, session)
+            arrival = moves.arrival_of(graph, v, session, self.params, self.gone)
             if arrival is not None:
                 return self.moved_to(graph, v, arrival, session, stamp)
             twin = twin_of(graph, v, self.params.distance(v.category), self.co_observed.seen_apart)
             into = None if twin is None else twin.id  # a duplicate of the node there: no change
             return [graph.remove(v, session, stamp, merged_into=into, retracted=self.params.retracts(v))]
         return []
-
-    def _arrival(self, graph: ObjectGraph, v: Node, session: int) -> Node | None:
-        """A node of ``v``'s category new in this session, within ``move_radius`` of the
-        older ``v`` whose absence is now confirmed: most likely ``v``'s object, moved, seen
-        at its new place before its old place was checked (nearest, then lowest id). Beyond
-        ``v``'s own gate, not a node at a place no earlier pass looked, nor one where the
-        previous pass detected another object of its category: likely always there; never one
-        whose colour tells it apart from ``v``'s."""
-        if v.first_session >= session:
-            return None
-        gate, radius = self.params.distance(v.category), self.params.sighting_radius
-        tolerance = self.params.colour_tolerance
-        near = [(d, n.id, n) for n, d in graph.within(v.category, v.position, self.params.move_radius)
-                if n.id != v.id and n.first_session == session and not looks.looks_apart(v, n, tolerance)
-                and (d <= gate or not (never_looked(graph, n) or sighted_before(graph, n, v, radius)))]
-        return min(near, key=lambda t: t[:2])[2] if near else None
 
     def moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
         """``v`` moved to where ``arrival`` stands: ``v`` keeps its id and takes the arrival's
@@ -366,24 +352,6 @@ class RobustPolicy:
         p = self.params
         rate = graph.evidence.detection_rate(v.id, p.detection_prior, p.detection_prior_weight)
         return misses_needed(rate, p.detection_prior, p.confirm_misses, p.max_misses)
-
-    def _move_candidate(self, graph: ObjectGraph, o: Observation) -> Node | None:
-        """Nearest same-category node removed this session, within move_radius (beyond ``o``'s
-        gate, none where no earlier pass looked or the previous pass detected another). A
-        node with only some misses is no candidate: one missed frame let a neighbouring chair,
-        seen for the first time, take its id. Its absence confirmed, :meth:`_arrival` still
-        makes it a move. Never a node whose colour tells it apart from ``o``'s."""
-        fresh = never_looked(graph, o)
-        best: tuple[float, int, Node] | None = None
-        for v in graph.removed_this_session():
-            if v.category != o.category:
-                continue
-            d = float(np.linalg.norm((v.position - o.position) * graph.index.scale))
-            if d <= self.params.move_radius and (best is None or (d, v.id) < best[:2]) and not (
-                    d > self.gate(o) and (fresh or sighted_before(graph, o, v, self.params.sighting_radius))
-            ) and not looks.looks_apart(v, o, self.params.colour_tolerance):
-                best = (d, v.id, v)
-        return None if best is None else best[2]
 
     def _move(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float) -> Event:
         """``v`` moved to where ``o`` saw it: same id, a "moved" event with where it was."""
