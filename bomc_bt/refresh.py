@@ -153,11 +153,17 @@ def displaced_nodes(nodes: Iterable[Node], added_at: dict[int, float], session: 
                     radius: float) -> list[Node]:
     """Present nodes of earlier passes last seen before a node of their category was added
     within ``radius`` m of them in pass ``session`` (``added_at``: node id -> robot time of its
-    "added" event this pass): the object may have moved there."""
+    "added" event this pass): the object may have moved there. A node this pass has not seen
+    at all was last seen before any addition of the pass (its ``last_seen`` is a robot time
+    of an earlier pass, on that pass's clock)."""
     nodes = [n for n in nodes if n.state == PRESENT]
     arrivals = [(u, added_at[u.id]) for u in nodes if u.first_session == session and u.id in added_at]
-    return [v for v in nodes if v.first_session < session and v.last_seen is not None and any(
-        u.category == v.category and v.last_seen < t and np.linalg.norm(u.position[:2] - v.position[:2]) <= radius
+
+    def seen_before(v: Node, t: float) -> bool:
+        return v.last_session < session or (v.last_seen is not None and v.last_seen < t)
+
+    return [v for v in nodes if v.first_session < session and any(
+        u.category == v.category and seen_before(v, t) and np.linalg.norm(u.position[:2] - v.position[:2]) <= radius
         for u, t in arrivals)]
 
 
