@@ -144,3 +144,51 @@ def test_a_chair_brought_back_beside_one_that_moved_is_not_where_that_one_went()
     g, changes, a_id, _ = pass_with_return_beside(gone_known=False)
     assert np.allclose(g.nodes[a_id].position[:2], [1.5, 0.1])
     assert all(c.back_of is None for c in changes)
+
+
+def test_the_place_a_node_left_when_its_removal_was_paired_as_a_move_is_a_place_gone_from(tmp_path):
+    """Seed 9201: pass 3 removed chair-11 on its misses and paired the removal with chair-13's
+    arrival 6.3 m off (one look), so chair-11's node stood at chair-13's place. Chair-11 came
+    back in pass 4: an object of that look new where the node was removed is another one back."""
+    def removal(nid: int, x: float) -> Event:
+        return Event("removed", nid, "chair", np.array([x, 0.0, 0.45]), 2, 5.0, detail={"misses": 3, "merged": False})
+
+    far, near, gone_twice = node(7, 6.3, 0.0, colour=RED, session=1), node(8, 20.5, colour=RED, session=1), \
+        node(9, 40.0, colour=RED, session=1)
+    events = {1: [Event("added", n.id, "chair", np.array([x, 0.0, 0.45]), 1, 0.0)
+                  for n, x in ((far, 0.0), (near, 20.0), (gone_twice, 30.0))],
+              2: [removal(7, 0.0), Event("moved", 7, "chair", far.position, 2, 9.0),  # paired 6.3 m off
+                  removal(8, 20.0), Event("moved", 8, "chair", near.position, 2, 9.0),  # 0.5 m: the same place
+                  removal(9, 30.0), Event("moved", 9, "chair", gone_twice.position, 2, 9.0)]}
+    gone_twice.state = "removed"  # and removed again since, where it stood last
+    with SiteStore(tmp_path / "site.db") as store:
+        for n in (1, 2):
+            store.begin_session(n, {"stamp": 0.0})
+            store.record(events[n], [far, near, gone_twice] if n == 1 else [])
+            store.end_session(n, "succeeded", {"stamp": 10.0})
+        gone = gone_before(store, 3)
+    assert [(g.id, g.position[0]) for g in gone] == [(7, 0.0)]  # where node 7 was removed, with its look
+    assert np.allclose(gone[0].colour, RED) and gone[0].state == "removed"
+    # pass 3: a red chair new where node 7 was removed is another one back, and no other red
+    # chair's removal pairs with it; node 7 itself may go back there
+    arrival = node(20, 0.1, colour=RED)
+    assert [(a.id, g.id) for a, g in brought_back([arrival], gone, 0.35, 0.04)] == [(20, 7)]
+
+
+def test_a_node_missing_where_it_stands_may_go_back_to_the_place_it_left():
+    # node 0 was removed at (0, 0) in pass 2 and paired with an arrival at (2.5, 0); in pass 3
+    # its place is empty and a chair of its look stands at (0.1, 0): the node gone back
+    params = AssociationParams(confirm_misses=1, confirm_detections=1)
+    moved = node(0, 2.5, colour=RED, session=1)
+    others = [node(1 + k, -10.0 * (k + 1), 30.0, colour=c, session=1) for k, c in enumerate((BLUE, GREY, GREEN))]
+    g = ObjectGraph(params, [moved, *others])
+    left = [Node(0, "chair", np.array([0.0, 0.0, 0.45]), 0.9, 1, 2, observations=10, colour=RED, state="removed")]
+    g.policy.gone = left
+    history = [Event("added", v.id, "chair", v.position.copy(), 1, 0.0) for v in (moved, *others)]
+    history += g.associate([Observation("chair", np.array([0.1, 0.0, 0.45]), 0.9, 500, colour=RED)], [], 3, 10.0)
+    for k in range(6):  # node 0's place in view, nothing there
+        history += g.associate([], [0] if 0 in g.nodes and g.nodes[0].position[0] > 2.0 else [], 3, 11.0 + k)
+    history += g.pair_relocations(3, 40.0, gone=left)
+    changes = net_changes(history, 2, lambda _c: 0.7)
+    assert [(c.kind, c.node_id, c.back_of) for c in changes] == [("moved", 0, None)]
+    assert np.allclose(g.nodes[0].position[:2], [0.1, 0.0])

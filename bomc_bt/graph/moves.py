@@ -15,7 +15,8 @@ and both refuse the same candidates:
   bin put near where a blue one went is another bin;
 * one standing where an earlier pass saw an object of its kind and look go
   (:func:`~bomc_bt.graph.brought_back.stands_where_gone`, within ``association.return_radius``):
-  that object is back, and the pass end says so. Traced on a 36 x 28 m office (seed 9105,
+  that object is back, and the pass end says so (unless the place is one the node itself
+  left, :func:`~bomc_bt.first_seen.gone_before`: it may have gone back). Traced on a 36 x 28 m office (seed 9105,
   pass 11): chair-11 carried 1.6 m while chair-5, of the same navy model, came back to its
   place 1.4 m the other side; the node of chair-11 took the nearer new node, chair-5's, for
   its move, and chair-11 at its new place was reported added.
@@ -57,7 +58,7 @@ def removed_here(graph: ObjectGraph, o: Observation, gate: float, params: Associ
             continue
         if not looks_apart(v, o, params.colour_tolerance):
             best = (d, v.id, v)
-    if best is None or stands_where_gone(o, gone, params.return_radius, params.colour_tolerance):
+    if best is None or stands_where_gone(o, others(gone, best[2]), params.return_radius, params.colour_tolerance):
         return None
     return best[2]
 
@@ -73,5 +74,10 @@ def arrival_of(graph: ObjectGraph, v: Node, session: int, params: AssociationPar
     near = [(d, n.id, n) for n, d in graph.within(v.category, v.position, params.move_radius)
             if n.id != v.id and n.first_session == session and not looks_apart(v, n, tolerance)
             and (d <= gate or not (never_looked(graph, n) or sighted_before(graph, n, v, radius)))
-            and not stands_where_gone(n, gone, params.return_radius, tolerance)]
+            and not stands_where_gone(n, others(gone, v), params.return_radius, tolerance)]
     return min(near, key=lambda t: t[:2])[2] if near else None
+
+
+def others(gone: Sequence[Node], v: Node) -> list[Node]:
+    """``gone`` but the place ``v`` itself left (:func:`~bomc_bt.first_seen.gone_before`): it may go back there."""
+    return [g for g in gone if g.id != v.id]

@@ -88,6 +88,7 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
                if v.first_session < session and not policy.params.retracts(v)]
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
     tolerance = policy.params.colour_tolerance
+    gone = [g for g in gone if g.id not in {v.id for v in removed}]  # a place it left: it may be back
     back = brought_back(arrivals, gone, policy.params.return_radius, tolerance)
     for arrival, went in back:
         events.append(graph.report("updated", arrival, session, stamp))
