@@ -16,10 +16,10 @@ and both refuse the same candidates:
 * one standing where an earlier pass saw an object of its kind and look go
   (:func:`~bomc_bt.graph.brought_back.stands_where_gone`, within ``association.return_radius``):
   that object is back, and the pass end says so (unless the place is one the node itself
-  left, :func:`~bomc_bt.first_seen.gone_before`: it may have gone back). Traced on a 36 x 28 m office (seed 9105,
-  pass 11): chair-11 carried 1.6 m while chair-5, of the same navy model, came back to its
-  place 1.4 m the other side; the node of chair-11 took the nearer new node, chair-5's, for
-  its move, and chair-11 at its new place was reported added.
+  left, :func:`~bomc_bt.first_seen.gone_before`: it may have gone back). Traced on a
+  36 x 28 m office (seed 9105, pass 11): chair-11 carried 1.6 m while chair-5, of the same
+  navy model, came back to its place 1.4 m the other side; the node of chair-11 took the
+  nearer new node, chair-5's, for its move, and chair-11 at its new place was reported added.
 
 A node with only some misses is no move candidate: one missed frame let a neighbouring
 chair, seen for the first time, take its id. Its absence confirmed, :func:`arrival_of` still
