@@ -160,7 +160,7 @@ def test_the_place_a_node_left_when_its_removal_was_paired_as_a_move_is_a_place_
               2: [removal(7, 0.0), Event("moved", 7, "chair", far.position, 2, 9.0),  # paired 6.3 m off
                   removal(8, 20.0), Event("moved", 8, "chair", near.position, 2, 9.0),  # 0.5 m: the same place
                   removal(9, 30.0), Event("moved", 9, "chair", gone_twice.position, 2, 9.0)]}
-    gone_twice.state = "removed"  # and removed again since, where it stood last
+    gone_twice.state = "removed"  # no longer on the map: it leaves no place (nor is its last event a removal)
     with SiteStore(tmp_path / "site.db") as store:
         for n in (1, 2):
             store.begin_session(n, {"stamp": 0.0})

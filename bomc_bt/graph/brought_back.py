@@ -64,15 +64,9 @@ def brought_back(arrivals: Sequence[Node], gone: Sequence[Node], radius: float, 
     """(arrival, gone node) for each of the ``arrivals`` standing within ``radius`` (planar,
     m) of a ``gone`` node of its category whose look does not tell them apart (``tolerance``:
     the colour tolerance, 0 colours off), the nearest such; none when ``radius`` is 0."""
-    if radius <= 0.0 or not gone:
-        return []
-    by_kind: dict[str, list[Node]] = {}
-    for g in gone:
-        by_kind.setdefault(g.category, []).append(g)
     back = []
     for a in arrivals:
-        near = [(float(np.hypot(*(a.position[:2] - g.position[:2]))), g.id, g) for g in by_kind.get(a.category, ())]
-        near = [(d, i, g) for d, i, g in near if d <= radius and not looks_apart(a, g, tolerance)]
+        near = _gone_near(a, gone, radius, tolerance)
         if near:
             back.append((a, min(near, key=lambda t: t[:2])[2]))
     return back
@@ -80,10 +74,23 @@ def brought_back(arrivals: Sequence[Node], gone: Sequence[Node], radius: float, 
 
 def stands_where_gone(at: Node | Observation, gone: Sequence[Node], radius: float, tolerance: float) -> bool:
     """Whether ``at`` (a node or a view) stands where :func:`brought_back` would take it for
-    one of the ``gone`` brought back: within ``radius`` of one of its category and look."""
-    return radius > 0.0 and any(
-        g.category == at.category and float(np.hypot(*(at.position[:2] - g.position[:2]))) <= radius
-        and not looks_apart(at, g, tolerance) for g in gone)
+    one of the ``gone`` brought back."""
+    return bool(_gone_near(at, gone, radius, tolerance))
+
+
+def _gone_near(at: Node | Observation, gone: Sequence[Node], radius: float, tolerance: float
+               ) -> list[tuple[float, int, Node]]:
+    """(planar distance, id, node) of each ``gone`` node of ``at``'s category within ``radius``
+    whose look does not tell them apart (none when ``radius`` is 0)."""
+    if radius <= 0.0:
+        return []
+    near = []
+    for g in gone:
+        if g.category == at.category:
+            d = float(np.hypot(*(at.position[:2] - g.position[:2])))
+            if d <= radius and not looks_apart(at, g, tolerance):
+                near.append((d, g.id, g))
+    return near
 
 
 def back_of(events: Iterable[Event]) -> dict[int, int]:
