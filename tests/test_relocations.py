@@ -103,7 +103,7 @@ def table_moved_before_the_robot_came(misses_up_close: int) -> tuple[ObjectGraph
 
 def test_a_node_the_pass_never_saw_and_saw_empty_up_close_moved_to_the_arrival_of_its_kind():
     # 36 x 28 m office, seed 9105, pass 3: table-6 pushed 2 m during the pass before the robot
-    # came; chairs left about its old place hid it from most views, and the three misses a
+    # came; few frames expected its old place, and the three misses a
     # refresh stop counted were fewer than the nine its detection rate asked. The pass reported
     # a table added and the next one the old table removed; it was one table moved.
     g, events = table_moved_before_the_robot_came(misses_up_close=2)

@@ -15,9 +15,9 @@ in this order:
    apart), then, of those left, by look (:func:`~bomc_bt.graph.looks.look_pairs`), then, of
    those left, by position with a node of an earlier pass the pass never saw and whose place a
    near, clear view saw empty (its removal short of evidence: a table moved 2 m during a pass
-   before the robot came, its old place hidden by the chairs left around it, was missed up
-   close three times of the nine its detection rate asks; 36 x 28 m office, seed 9105, pass
-   3); an
+   before the robot came, its old place in no frame's view for most of the pass, was missed
+   up close three times of the nine its detection rate asks; 36 x 28 m office, seed 9105,
+   pass 3); an
    addition standing where an earlier pass saw one of its kind and look go is that object
    brought back, never an arrival (:func:`~bomc_bt.graph.brought_back.brought_back`). A node
    the pass retracted (taken off having been matched only in the frames that confirmed it)
