@@ -11,6 +11,7 @@ from its parts (:class:`EncodedJSON`), byte for byte the text ``json.dumps`` wou
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,6 +25,8 @@ def to_jsonable(value: Any) -> Any:
         return value.tolist()
     if isinstance(value, np.generic):
         return value.item()
+    if isinstance(value, EncodedJSON):
+        raise TypeError("encoded JSON text is written by dumps_raw, as a dict's value")
     return str(value)
 
 
@@ -60,3 +63,70 @@ class AppendOnlyJSON:
             self._items, self._parts = items, []
         self._parts.extend(dumps(item) for item in items[len(self._parts):])
         return "[" + ", ".join(self._parts) + "]"
+
+
+def dumps_raw(value: Any) -> str:
+    """:func:`dumps` of ``value`` whose dicts may hold :class:`EncodedJSON` values (written as
+    they are); the same text ``dumps`` gives for the plain value they encode."""
+    if isinstance(value, EncodedJSON):
+        return value.text
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{json.dumps(str(k))}: {dumps_raw(v)}" for k, v in value.items()) + "}"
+    return dumps(value)
+
+
+def _same(old: Any, new: Any) -> bool:
+    """``new`` writes as ``old`` did: the same object, or an equal float (not a zero: -0.0)."""
+    return old is new or (type(old) is float and type(new) is float and old == new and new != 0.0)
+
+
+class JSONMemo:
+    """The JSON text of named maps and lists that change a few entries at a time, each
+    entry encoded again only when its value is no longer the same object (module docstring).
+
+    The owner must replace a value that changes and never change it in place; a value
+    changed in place keeps its old text (tests/test_json_text.py runs a pass and compares
+    every frame's text with ``json.dumps`` of the plain state)."""
+
+    def __init__(self) -> None:
+        self._maps: dict[str, dict[Any, tuple[Any, str]]] = {}
+        self._lists: dict[str, dict[int, tuple[Any, str]]] = {}
+
+    def map(self, name: str, pairs: Iterable[tuple[Any, Any]],
+            value: Callable[[Any], Any] | None = None) -> EncodedJSON:
+        """The object ``{str(key): value(v)}`` of ``pairs`` (key, v), in their order."""
+        old, new = self._maps.get(name, {}), {}
+        for key, v in pairs:
+            hit = old.get(key)
+            new[key] = hit if hit is not None and _same(hit[0], v) else \
+                (v, f"{json.dumps(str(key))}: {dumps(v if value is None else value(v))}")
+        self._maps[name] = new
+        return EncodedJSON("{" + ", ".join(part for _, part in new.values()) + "}")
+
+    def list(self, name: str, items: Iterable[Any], value: Callable[[Any], Any] | None = None) -> EncodedJSON:
+        """The list ``[value(v) for v in items]``."""
+        old, new, parts = self._lists.get(name, {}), {}, []
+        for v in items:
+            hit = old.get(id(v))
+            if hit is None or hit[0] is not v:
+                hit = (v, dumps(v if value is None else value(v)))
+            new[id(v)] = hit  # the value is held, so its id is not another's while kept
+            parts.append(hit[1])
+        self._lists[name] = new
+        return EncodedJSON("[" + ", ".join(parts) + "]")
+
+
+def keyed(memo: JSONMemo | None, name: str, pairs: Iterable[tuple[Any, Any]],
+          value: Callable[[Any], Any] | None = None) -> dict[str, Any] | EncodedJSON:
+    """A state's map of ``pairs`` (key, v): ``{str(key): value(v)}``, or with ``memo`` its text."""
+    if memo is not None:
+        return memo.map(name, pairs, value)
+    return {str(k): v if value is None else value(v) for k, v in pairs}
+
+
+def listed(memo: JSONMemo | None, name: str, items: Iterable[Any],
+           value: Callable[[Any], Any] | None = None) -> list[Any] | EncodedJSON:
+    """A state's list ``[value(v) for v in items]``, or with ``memo`` its text."""
+    if memo is not None:
+        return memo.list(name, items, value)
+    return [v if value is None else value(v) for v in items]

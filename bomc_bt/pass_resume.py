@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from bomc_bt.json_text import AppendOnlyJSON, EncodedJSON, dumps, encoded_object
+from bomc_bt.json_text import AppendOnlyJSON, EncodedJSON, JSONMemo, dumps, dumps_raw, encoded_object
 
 
 def resume_key(session: int) -> str:
@@ -78,14 +78,16 @@ def frame_progress(perception, robot) -> dict[str, Any]:
 
 
 class ResumeText:
-    """A pass's resume point as JSON text, each view polygon encoded once.
+    """A pass's resume point as JSON text, each view polygon and each graph entry that did
+    not change encoded once.
 
     The point is written with every frame and carries every view polygon since the last
-    waypoint; encoding those lists anew each frame cost time growing with the frames
-    since the waypoint (:mod:`bomc_bt.json_text`). The text equals ``json.dumps`` of
-    :func:`resume_point` byte for byte (tests/test_json_text.py)."""
+    waypoint and the graph's per-node pass state; encoding them anew each frame cost time
+    growing with the frames since the waypoint and with the nodes (:mod:`bomc_bt.json_text`).
+    The text equals ``json.dumps`` of :func:`resume_point` byte for byte (tests/test_json_text.py)."""
 
     def __init__(self) -> None:
+        self.graph = JSONMemo()
         self.fov = AppendOnlyJSON()
         self.looked = AppendOnlyJSON()
         self.sighted = AppendOnlyJSON()
@@ -94,7 +96,7 @@ class ResumeText:
         checkpoint = getattr(robot, "checkpoint", None)
         return encoded_object({
             "robot": dumps(checkpoint() if callable(checkpoint) else None),
-            "graph": dumps(perception.graph.pass_state()),
+            "graph": dumps_raw(perception.graph.pass_state(self.graph)),
             "frames": dumps(perception.frames),
             "fov_since": self.fov.text(perception.fov_since),
             "looked_since": self.looked.text(perception.looked_since),
@@ -168,8 +170,12 @@ def restore_pass(store, session: int, robot, perception) -> bool:
 
 
 def pack_mask(mask: np.ndarray) -> str:
-    """A 0/1 mask as compressed text (a monitor map's coverage is mostly runs)."""
-    return base64.b64encode(zlib.compress(np.packbits(mask.astype(bool)).tobytes(), 6)).decode("ascii")
+    """A 0/1 mask as compressed text (a monitor map's coverage is mostly runs). Bytes and
+    bools are packed as they are (``packbits`` takes any nonzero as 1), without a copy;
+    zlib's level 1 is 2.5 times as fast as its 6 on an Environment-A-size coverage (0.8 against
+    2.0 ms; 12.4 KB against 9.7), and a pass packs it and its like at every waypoint."""
+    bits = np.packbits(mask if mask.dtype in (np.uint8, np.bool_) else mask.astype(bool))
+    return base64.b64encode(zlib.compress(bits.tobytes(), 1)).decode("ascii")
 
 
 def unpack_mask(text: str, shape: tuple[int, ...]) -> np.ndarray:

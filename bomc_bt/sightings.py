@@ -52,6 +52,7 @@ class Sightings:
         self.grid = grid
         self.masks: dict[str, np.ndarray] = {}
         self.since: list[list] = []  # [category, x, y] since the last snapshot (a resume point's part)
+        self._packed: dict[str, str] = {}  # category -> its mask packed, while no cell was marked since
 
     def add(self, observations: Iterable) -> None:
         """Mark each observation's cell in its category's mask."""
@@ -77,16 +78,22 @@ class Sightings:
         if mask[rows[0], cols[0]]:
             return False
         mask[rows[0], cols[0]] = True
+        self._packed.pop(category, None)
         return True
 
     def packed(self) -> dict[str, str]:
         """{category: packed mask}: the value saved under
-        :func:`~bomc_bt.pass_resume.sightings_key`."""
-        return {category: pack_mask(mask) for category, mask in sorted(self.masks.items())}
+        :func:`~bomc_bt.pass_resume.sightings_key`. A mask is packed again only when a cell of
+        it was marked since (every waypoint saves them all; most categories were not seen)."""
+        for category, mask in self.masks.items():
+            if category not in self._packed:
+                self._packed[category] = pack_mask(mask)
+        return {category: self._packed[category] for category in sorted(self.masks)}
 
     def restore(self, saved: Mapping[str, str]) -> None:
         """Put back a snapshot saved by :meth:`packed` (a resumed pass)."""
         self.masks = {str(c): unpack_mask(text, self.grid.data.shape).astype(bool) for c, text in saved.items()}
+        self._packed = {}
 
 
 def unpack_sightings(saved, shape: tuple[int, int]) -> dict[str, np.ndarray] | None:

@@ -19,6 +19,7 @@ from bomc_bt.graph.footprints import NOISE_PAD, box_gap, half_diagonal, inside, 
 from bomc_bt.graph.parts import FOOTPRINT_RANK, footprint_length
 from bomc_bt.graph.pass_views import PassViews
 from bomc_bt.graph.records import AssociationParams, Node, Observation
+from bomc_bt.json_text import JSONMemo, keyed
 
 if TYPE_CHECKING:
     from bomc_bt.graph.object_graph import ObjectGraph
@@ -189,12 +190,12 @@ class NodeExtents:
             self._saw_whole(v.id, sides(o.box))
         self._mark(v.id, not o.truncated)
 
-    def to_json(self) -> dict:
+    def to_json(self, memo: JSONMemo | None = None) -> dict:
         """What a resumed pass needs: longest views, longest whole views, partial footprints,
         the floor views of this pass covered (:class:`~bomc_bt.graph.pass_views.PassViews`; JSON-able)."""
-        return {"longest": {str(i): x for i, x in self._longest_view.items()}, "partial": sorted(self._partial),
-                "whole": {str(i): x.tolist() for i, x in self._whole_view.items()},
-                **self.views.to_json()}
+        return {"longest": keyed(memo, "extents.longest", self._longest_view.items()), "partial": sorted(self._partial),
+                "whole": keyed(memo, "extents.whole", self._whole_view.items(), np.ndarray.tolist),
+                **self.views.to_json(memo)}
 
     def restore(self, data: dict) -> None:
         """Put back what :meth:`to_json` saved."""

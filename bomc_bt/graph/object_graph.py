@@ -29,6 +29,7 @@ from bomc_bt.graph.refinement import ends_of_one, refinements
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.spatial import SpatialIndex
 from bomc_bt.graph.tentative import Sighting
+from bomc_bt.json_text import JSONMemo, keyed
 
 
 def make_policy(params: AssociationParams) -> AssociationPolicy:
@@ -225,34 +226,33 @@ class ObjectGraph:
         return [i for i in dict.fromkeys(expected) if i in self.nodes]
 
     # ------------------------------------------------------------ resume state
-    def pass_state(self) -> dict:
+    def pass_state(self, memo: JSONMemo | None = None) -> dict:
         """What the graph keeps in memory during a pass besides the nodes the store holds:
         when each node was last seen, counted misses, this session's removals (move
         candidates), reported positions, widened gates, which footprints hold only partial
-        views (and their longest view), first sightings awaiting confirmation and where
-        each node stood before the pass changed it (refinements). JSON-able; saved with
-        every frame so a resumed pass continues exactly (:mod:`bomc_bt.pass_resume`)."""
-        tentative = getattr(self.policy, "tentative", None)
-        extents = getattr(self.policy, "extents", None)
+        views (and their longest view), first sightings awaiting confirmation and where each node
+        stood before the pass changed it (refinements). JSON-able (``memo``: maps as text, for
+        :func:`~bomc_bt.json_text.dumps_raw`); saved with every frame (:mod:`bomc_bt.pass_resume`)."""
+        tentative, extents = getattr(self.policy, "tentative", None), getattr(self.policy, "extents", None)
         co_observed = getattr(self.policy, "co_observed", None)
         return {
             "session": self._session,
-            "last_seen": {str(i): n.last_seen for i, n in self.nodes.items() if n.last_seen is not None},
+            "last_seen": keyed(memo, "last_seen", ((i, n.last_seen) for i, n in self.nodes.items()
+                                                   if n.last_seen is not None)),
             "last_miss": {str(i): list(v) for i, v in self._last_miss.items()},
             "removed_now": sorted(self._removed_now),
-            "reported": {str(i): p.tolist() for i, p in self._reported.items()},
-            "gates": {str(i): g for i in self.nodes if (g := self.index.gate_of(i)) > 0.0},
-            "tentative": None if tentative is None else tentative.to_json(),
-            "extents": None if extents is None else extents.to_json(),
+            "reported": keyed(memo, "reported", self._reported.items(), np.ndarray.tolist),
+            "gates": keyed(memo, "gates", ((i, g) for i in self.nodes if (g := self.index.gate_of(i)) > 0.0)),
+            "tentative": None if tentative is None else tentative.to_json(memo),
+            "extents": None if extents is None else extents.to_json(memo),
             "co_observed": None if co_observed is None else co_observed.to_json(),
-            "started": {str(i): [None if fp is None else fp.tolist(), p.tolist()]
-                        for i, (fp, p) in self.started.items()},
+            "started": keyed(memo, "started", self.started.items(),
+                             lambda s: [None if s[0] is None else s[0].tolist(), s[1].tolist()]),
         }
 
     def keep_apart(self, session: int, pairs: list[tuple[int, int]]) -> None:
-        """Start ``session`` knowing the node ``pairs`` earlier passes saw as two objects in
-        one frame (robust association never folds them; :mod:`bomc_bt.graph.co_observed`).
-        Pairs with a node no longer present are dropped."""
+        """Start ``session`` knowing the node ``pairs`` earlier passes saw as two objects in one frame (robust
+        association never folds them; :mod:`bomc_bt.graph.co_observed`); pairs with a node gone are dropped."""
         co_observed = getattr(self.policy, "co_observed", None)
         if co_observed is not None:
             co_observed.carry(session, [(a, b) for a, b in pairs if a in self.nodes and b in self.nodes])

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bomc_bt.graph.footprints import NOISE_PAD, inside, union
+from bomc_bt.json_text import JSONMemo, keyed
 
 if TYPE_CHECKING:
     from bomc_bt.graph.object_graph import ObjectGraph
@@ -65,9 +66,10 @@ class PassViews:
             return None
         return None if inside(seen, start[0], NOISE_PAD) else seen.copy()
 
-    def to_json(self) -> dict:
-        return {"on_start": {str(i): x.tolist() for i, x in self._on_start.items()},
-                "seen": {str(i): x.tolist() for i, x in self._all.items()}}
+    def to_json(self, memo: JSONMemo | None = None) -> dict:
+        """JSON-able (with ``memo``, each map as its text: :class:`~bomc_bt.json_text.JSONMemo`)."""
+        return {"on_start": keyed(memo, "views.on_start", self._on_start.items(), np.ndarray.tolist),
+                "seen": keyed(memo, "views.seen", self._all.items(), np.ndarray.tolist)}
 
     def restore(self, data: dict) -> None:
         """Put back what :meth:`to_json` saved (a pass state without it: none)."""

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bomc_bt.graph.records import AssociationParams, Observation
+from bomc_bt.json_text import JSONMemo, listed
 
 
 @dataclass
@@ -109,11 +110,12 @@ class TentativeSightings:
         gap = float(np.linalg.norm((position - at) * self.scale))
         return category == other and gap <= self.params.distance(category)
 
-    def to_json(self) -> dict:
-        """The sightings waiting, JSON-able (a resumed pass picks them up again)."""
-        return {"session": self._session, "waiting": [_sighting_json(t) for t in self.waiting],
-                "lapsed": [_sighting_json(t) for t in self.lapsed],
-                "looked": [[c, p.tolist(), d] for c, p, d in self.looked]}
+    def to_json(self, memo: JSONMemo | None = None) -> dict:
+        """The sightings waiting, JSON-able (a resumed pass picks them up again; with ``memo``,
+        each list as its text: :class:`~bomc_bt.json_text.JSONMemo`)."""
+        return {"session": self._session, "waiting": listed(memo, "tentative.waiting", self.waiting, _sighting_json),
+                "lapsed": listed(memo, "tentative.lapsed", self.lapsed, _sighting_json),
+                "looked": listed(memo, "tentative.looked", self.looked, _looked_json)}
 
     def restore(self, data: dict) -> None:
         self._session = data.get("session")
@@ -190,6 +192,10 @@ class TentativeSightings:
 def _sighting_json(t: Sighting) -> dict:
     return {"category": t.category, "position": t.position.tolist(), "count": t.count, "last": t.last,
             "first": t.first, "beside": t.beside}
+
+
+def _looked_json(e: tuple[str, np.ndarray, float]) -> list:
+    return [e[0], e[1].tolist(), e[2]]
 
 
 def _sighting(w: dict) -> Sighting:

@@ -33,7 +33,7 @@ def robot_state(robot) -> dict[str, Any]:
     """``robot`` (a :class:`~bomc_bt.sim.robot.SimRobot`) at this step, JSON-able."""
     t = robot._true
     layer = robot._obstacles
-    obstacles = None if layer is None else {**_tiles_of(layer).encode(layer.mask, layer.version),
+    obstacles = None if layer is None else {**_tiles_of(layer).encode(layer.mask, layer.version, layer.changed_since),
                                             "version": int(layer.version)}
     return {
         "kind": "sim",

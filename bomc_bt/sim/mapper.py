@@ -85,6 +85,9 @@ class Mapper:
         return self._map
 
 
+_KEPT_WINDOWS = 64  # [count] scan windows an obstacle layer remembers for its checkpoint
+
+
 class ObstacleLayer:
     """Obstacles seen by recent scans, on a saved map's grid (a costmap obstacle layer)."""
 
@@ -94,6 +97,7 @@ class ObstacleLayer:
         self.mask = np.zeros(grid.data.shape, dtype=bool)
         self.version = 0
         self._packed: tuple[int, str] | None = None  # (version, packed mask) of the last checkpoint
+        self._windows: list[tuple[int, tuple[int, int, int, int]]] = []  # (version, window) of recent scans
 
     def update(self, scan: LaserScan, pose: Pose2D) -> None:
         p = self.params
@@ -107,10 +111,22 @@ class ObstacleLayer:
         view |= raster.hits
         if not np.array_equal(before, view):
             self.version += 1
+            self._windows = self._windows[-(_KEPT_WINDOWS - 1):] + [
+                (self.version, (raster.r0, raster.r0 + h, raster.c0, raster.c0 + w))]
+
+    def changed_since(self, version: int) -> list[tuple[int, int, int, int]] | None:
+        """The windows (rows r0:r1, columns c0:c1) of the mask that scans changed after
+        ``version``; None where something else changed it since, or too long ago (the
+        checkpoint's tile encoder then looks at the whole mask: :mod:`bomc_bt.sim.tiled_mask`)."""
+        after = [(v, window) for v, window in self._windows if v > version]
+        if [v for v, _ in after] != list(range(version + 1, self.version + 1)):
+            return None
+        return [window for _, window in after]
 
     def clear(self) -> None:
         self.mask[:] = False
         self.version += 1
+        self._windows = []
 
     def points(self) -> np.ndarray:
         """(N, 2) map-frame centres of the marked cells."""
@@ -128,4 +144,5 @@ class ObstacleLayer:
         """Put back a checkpoint's mask (:meth:`packed`) and version."""
         self.mask[:] = unpack_mask(packed, self.mask.shape).astype(bool)
         self.version = int(version)
+        self._windows = []
         self._packed = (self.version, packed)
