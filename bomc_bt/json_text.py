@@ -58,10 +58,11 @@ class AppendOnlyJSON:
     _items: list | None = field(default=None, repr=False)
     _parts: list[str] = field(default_factory=list, repr=False)
 
-    def text(self, items: list) -> str:
+    def text(self, items: list, value: Callable[[Any], Any] | None = None) -> str:
+        """``dumps([value(v) for v in items])`` (``value`` None: the items as they are)."""
         if items is not self._items or len(items) < len(self._parts):
             self._items, self._parts = items, []
-        self._parts.extend(dumps(item) for item in items[len(self._parts):])
+        self._parts.extend(dumps(item if value is None else value(item)) for item in items[len(self._parts):])
         return "[" + ", ".join(self._parts) + "]"
 
 
@@ -91,6 +92,7 @@ class JSONMemo:
     def __init__(self) -> None:
         self._maps: dict[str, dict[Any, tuple[Any, str]]] = {}
         self._lists: dict[str, dict[int, tuple[Any, str]]] = {}
+        self._appended: dict[str, AppendOnlyJSON] = {}
 
     def map(self, name: str, pairs: Iterable[tuple[Any, Any]],
             value: Callable[[Any], Any] | None = None) -> EncodedJSON:
@@ -114,6 +116,11 @@ class JSONMemo:
             parts.append(hit[1])
         self._lists[name] = new
         return EncodedJSON("[" + ", ".join(parts) + "]")
+
+    def appended(self, name: str, items: list, value: Callable[[Any], Any] | None = None) -> EncodedJSON:
+        """:meth:`list` of a list that is only appended to (:class:`AppendOnlyJSON`): no
+        entry is looked at twice."""
+        return EncodedJSON(self._appended.setdefault(name, AppendOnlyJSON()).text(items, value))
 
 
 def keyed(memo: JSONMemo | None, name: str, pairs: Iterable[tuple[Any, Any]],

@@ -127,7 +127,7 @@ class TentativeSightings:
         each list as its text: :class:`~bomc_bt.json_text.JSONMemo`)."""
         return {"session": self._session, "waiting": listed(memo, "tentative.waiting", self.waiting, _sighting_json),
                 "lapsed": listed(memo, "tentative.lapsed", self.lapsed, _sighting_json),
-                "looked": listed(memo, "tentative.looked", self.looked, _looked_json)}
+                "looked": _looked_json(self.looked) if memo is None else memo.appended("looked", self.looked, _looked)}
 
     def restore(self, data: dict) -> None:
         self._session = data.get("session")
@@ -206,8 +206,12 @@ def _sighting_json(t: Sighting) -> dict:
             "first": t.first, "beside": t.beside}
 
 
-def _looked_json(e: tuple[str, np.ndarray, float]) -> list:
+def _looked(e: tuple[str, np.ndarray, float]) -> list:
     return [e[0], e[1].tolist(), e[2]]
+
+
+def _looked_json(looked: list[tuple[str, np.ndarray, float]]) -> list:
+    return [_looked(e) for e in looked]  # only appended to (mark_looked): JSONMemo.appended
 
 
 def _sighting(w: dict) -> Sighting:
