@@ -93,17 +93,24 @@ class JSONMemo:
         self._maps: dict[str, dict[Any, tuple[Any, str]]] = {}
         self._lists: dict[str, dict[int, tuple[Any, str]]] = {}
         self._appended: dict[str, AppendOnlyJSON] = {}
+        self._texts: dict[str, tuple[tuple, str]] = {}  # a map's keys in order and its whole text
 
     def map(self, name: str, pairs: Iterable[tuple[Any, Any]],
             value: Callable[[Any], Any] | None = None) -> EncodedJSON:
         """The object ``{str(key): value(v)}`` of ``pairs`` (key, v), in their order."""
-        old, new = self._maps.get(name, {}), {}
+        old, new, encoded = self._maps.get(name, {}), {}, 0
         for key, v in pairs:
             hit = old.get(key)
-            new[key] = hit if hit is not None and _same(hit[0], v) else \
-                (v, f"{json.dumps(str(key))}: {dumps(v if value is None else value(v))}")
-        self._maps[name] = new
-        return EncodedJSON("{" + ", ".join(part for _, part in new.values()) + "}")
+            if hit is None or (hit[0] is not v and not _same(hit[0], v)):
+                hit, encoded = (v, f"{json.dumps(str(key))}: {dumps(v if value is None else value(v))}"), encoded + 1
+            new[key] = hit
+        keys, last = tuple(new), self._texts.get(name)
+        if encoded == 0 and last is not None and last[0] == keys:  # every entry as it was, in order
+            text = last[1]
+        else:
+            text = "{" + ", ".join(part for _, part in new.values()) + "}"
+        self._maps[name], self._texts[name] = new, (keys, text)
+        return EncodedJSON(text)
 
     def list(self, name: str, items: Iterable[Any], value: Callable[[Any], Any] | None = None) -> EncodedJSON:
         """The list ``[value(v) for v in items]``."""
