@@ -71,6 +71,7 @@ class GridPlanner:
         self.planning_grid = OccupancyGrid(data, self.resolution, tuple(grid.origin))
         self._labels: np.ndarray | None = None
         self._fine: np.ndarray | None = None
+        self._unreached: list[float] | None = None  # distances_from's start: -1 lethal, inf the rest
 
     # -- coordinates ---------------------------------------------------------------------
     def cell(self, xy) -> tuple[int, int]:
@@ -316,9 +317,11 @@ class GridPlanner:
         s = self._endpoint(np.asarray(start_xy, dtype=float)[:2], self.params.escape_radius)
         if s is None:
             return out
-        w, cost, moves = self._w, self._cost, self._moves
+        w, moves = self._w, self._moves
+        if self._unreached is None:  # lethal cells at -1: no path improves them, no test per step
+            self._unreached = [-1.0 if c == math.inf else math.inf for c in self._cost]
         start = self._flat(*s)
-        best = [math.inf] * len(cost)
+        best = list(self._unreached)
         best[start] = 0.0
         heap = [(0.0, start)]
         push, pop = heapq.heappush, heapq.heappop
@@ -328,13 +331,12 @@ class GridPlanner:
                 continue
             for step, length in moves:
                 j = i + step
-                if cost[j] == math.inf:
-                    continue
                 nd = d + length
                 if nd < best[j]:
                     best[j] = nd
                     push(heap, (nd, j))
         field = np.asarray(best).reshape(-1, w)[1:-1, 1:-1]
+        field[field < 0.0] = np.inf
         return field * self.resolution
 
     def path_lengths_from(self, start_xy) -> Callable[[np.ndarray], np.ndarray]:
