@@ -228,3 +228,21 @@ def test_an_object_is_drawn_in_its_own_colour_and_without_one_in_its_categorys()
     other = rgb[ids == 2] / rgb[ids == 2].sum(axis=1, keepdims=True)
     r, g, b = category_colour("chair")
     assert np.allclose(other, np.array([r, g, b]) / (r + g + b), atol=0.01)
+
+
+def test_an_object_repainted_or_replaced_between_frames_of_one_camera_is_drawn_as_it_is_now():
+    """The camera keeps the objects' colours while the records are the same; a changed world
+    (new records: a chair repainted, another carried in) is drawn and labelled anew."""
+    cam = camera(tilt_deg=0.0, scale=0.5)
+    walls, grid = empty_world()
+    red = WorldObject("r", "chair", (3.0, 0.6, 1.1), (0.4, 0.4, 0.4), colour=(160, 45, 40))
+    first = render(cam, walls, grid, [red])
+    blue = WorldObject("r", "chair", (3.0, 0.6, 1.1), (0.4, 0.4, 0.4), colour=(40, 45, 160))
+    bin_ = WorldObject("b", "trash bin", (3.0, -0.6, 1.1), (0.4, 0.4, 0.4))
+    second = render(cam, walls, grid, [blue, bin_])
+    def mean(frame, instance):
+        return frame.rgb.reshape(-1, 3)[frame.instances.ravel() == instance].mean(axis=0)
+    assert mean(first, 1)[0] > 2 * mean(first, 1)[2] and mean(second, 1)[2] > 2 * mean(second, 1)[0]
+    assert second.instance_categories == {1: "chair", 2: "trash bin"} and first.instance_categories == {1: "chair"}
+    again = render(cam, walls, grid, [red])
+    assert np.array_equal(again.rgb, first.rgb)

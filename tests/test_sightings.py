@@ -241,3 +241,20 @@ def test_a_chair_of_another_colour_where_the_previous_pass_saw_one_is_added_not_
         blind = load_seen_before(store, 3, grid, 0.3, 0.35)  # colours off
         assert blind.verdict("chair", at, red) == {FIRST_SEEN: True, SIGHTED_IN: 2}
         assert [v for _, v in blind.final_verdicts([arrival], history)] == [{FIRST_SEEN: True, SIGHTED_IN: 2}]
+
+
+def test_a_category_s_mask_is_packed_again_after_a_mark_and_kept_otherwise():
+    """A waypoint saves every category's mask; one not marked since keeps its packed text, one
+    marked since is packed anew (a kept stale text would resume a pass without the new sighting)."""
+    grid = OccupancyGrid(np.zeros((40, 60), dtype=np.int8), 0.1, (0.0, 0.0))
+    sightings = Sightings(grid)
+    sightings.add([SimpleNamespace(category="chair", position=np.array([1.0, 1.0, 0.4]))])
+    sightings.add([SimpleNamespace(category="door", position=np.array([3.0, 2.0, 1.0]))])
+    first = sightings.packed()
+    sightings.add([SimpleNamespace(category="chair", position=np.array([2.0, 1.5, 0.4]))])
+    second = sightings.packed()
+    assert second["door"] is first["door"] and second["chair"] != first["chair"]
+    restored = Sightings(grid)
+    restored.restore(json.loads(json.dumps(second)))
+    assert restored.masks["chair"].sum() == 2 and np.array_equal(restored.masks["chair"], sightings.masks["chair"])
+    assert restored.packed() == second
