@@ -135,8 +135,8 @@ class SimCamera:
 
     def _looks_of(self, objects: list) -> tuple[np.ndarray, dict[int, str]]:
         """Each object's surface colour (N, 3) and the instance id -> category map, kept while
-        the objects are the same records (frozen: a change is a new record). Built per frame,
-        they were 0.5 ms of an Environment-A-size frame's 420 objects."""
+        the objects are the same records (frozen: a change is a new record). Built per frame for
+        an Environment-A-size floor's 402 objects they cost 0.13 ms (0.02 ms to see they are the same)."""
         kept = self._looks
         same = kept is not None and len(kept[0]) == len(objects) and all(map(operator.is_, kept[0], objects))
         if not same:

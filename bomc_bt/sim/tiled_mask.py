@@ -57,14 +57,11 @@ class TiledMaskText:
         for r in range(0, packed.shape[0], t):
             for b in range(0, packed.shape[1], tb):
                 bits = packed[r:r + t, b:b + tb].tobytes()
-                if bits.count(0) == len(bits):
+                if _empty(bits):
                     continue  # an empty tile is not saved
                 key = f"{r // t},{b // tb}"
-                old = self._tiles.get(key)
-                text = old[1] if old is not None and old[0] == bits else \
-                    base64.b64encode(zlib.compress(bits, 6)).decode("ascii")
-                kept[key] = (bits, text)
-                tiles[key] = text
+                kept[key] = self._tile(key, bits)
+                tiles[key] = kept[key][1]
         self._tiles = kept
         value = {"tile": t, "shape": list(mask.shape), "tiles": tiles}
         self._last = (version, mask.shape, value)
@@ -77,16 +74,27 @@ class TiledMaskText:
                    for i in range(r0 // t, (r1 - 1) // t + 1) for j in range(c0 // t, (c1 - 1) // t + 1)}
         for i, j in touched:
             bits = np.packbits(mask[i * t:(i + 1) * t, j * t:(j + 1) * t].astype(bool, copy=False), axis=1).tobytes()
-            key, old = f"{i},{j}", self._tiles.get(f"{i},{j}")
-            if bits.count(0) == len(bits):
+            key = f"{i},{j}"
+            if _empty(bits):
                 self._tiles.pop(key, None)
-            elif old is None or old[0] != bits:
-                self._tiles[key] = (bits, base64.b64encode(zlib.compress(bits, 6)).decode("ascii"))
+            else:
+                self._tiles[key] = self._tile(key, bits)
         order = sorted(self._tiles, key=lambda k: tuple(int(v) for v in k.split(","))) if touched else self._tiles
         self._tiles = {k: self._tiles[k] for k in order}  # row by row, as a whole encoding lists them
         value = {"tile": t, "shape": list(mask.shape), "tiles": {k: v[1] for k, v in self._tiles.items()}}
         self._last = (version, mask.shape, value)
         return value
+
+    def _tile(self, key: str, bits: bytes) -> tuple[bytes, str]:
+        """(bits, text) of tile ``key``: the kept text while its bits are the same, else compressed anew."""
+        old = self._tiles.get(key)
+        if old is not None and old[0] == bits:
+            return old
+        return bits, base64.b64encode(zlib.compress(bits, 6)).decode("ascii")
+
+
+def _empty(bits: bytes) -> bool:
+    return bits.count(0) == len(bits)
 
 
 def decode(value: dict[str, Any], shape: tuple[int, int]) -> np.ndarray:
