@@ -30,7 +30,7 @@ sys.path.insert(0, str(REPO))
 from bomc_bt import run  # noqa: E402
 from bomc_bt.evaluate_site import evaluate_session  # noqa: E402
 from bomc_bt.officegen import OfficeParams, generate_office  # noqa: E402
-from bomc_bt.pass_resume import resume_key  # noqa: E402
+from bomc_bt.resume_rows import load_resume_point  # noqa: E402
 from bomc_bt.site import Site, current_generation  # noqa: E402
 from bomc_bt.store import SiteStore  # noqa: E402
 from bomc_bt.world import load_world  # noqa: E402
@@ -100,7 +100,7 @@ def graph(site: Path, session: int) -> list[tuple]:
 
 def committed_time(site: Path, session: int) -> float | None:
     with SiteStore(site, readonly=True) as store:
-        point = store.get_progress(resume_key(session))
+        point = load_resume_point(store, session)
     robot = (point or {}).get("robot") or {}
     return None if "steps" not in robot else robot["steps"] * 0.1
 

@@ -4,8 +4,10 @@ A monitor pass commits a resume point with every frame (:mod:`bomc_bt.pass_resum
 carries every view polygon since the last waypoint, so encoding the whole point anew each
 frame grew with the frames since the waypoint (on a 50 x 45 m office the two polygon lists
 were 64 KB a frame and their encoding the largest single cost of the pass). The lists only
-grow, so each polygon is encoded once (:class:`AppendOnlyJSON`) and the point is joined
-from its parts (:class:`EncodedJSON`), byte for byte the text ``json.dumps`` would write.
+grow, so each polygon is encoded once (:class:`AppendOnlyJSON`), the graph's maps keep the
+text of each entry that did not change (:class:`JSONMemo`), and the values are joined from
+their parts (:class:`EncodedJSON`), byte for byte the text ``json.dumps`` would write. The
+store writes only the parts of the point that changed (:mod:`bomc_bt.resume_rows`).
 """
 
 from __future__ import annotations
@@ -42,9 +44,13 @@ class EncodedJSON:
     text: str
 
 
-def encoded_object(parts: dict[str, str]) -> EncodedJSON:
-    """The JSON object of already encoded member values, in order, as ``json.dumps`` writes it."""
-    return EncodedJSON("{" + ", ".join(f"{json.dumps(k)}: {v}" for k, v in parts.items()) + "}")
+@dataclass(frozen=True)
+class Dropped:
+    """A progress value that deletes its row instead of writing one (a resume point's part
+    no longer in it, :mod:`bomc_bt.resume_rows`)."""
+
+
+DROP = Dropped()
 
 
 @dataclass

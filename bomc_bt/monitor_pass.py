@@ -32,9 +32,12 @@ def save_pass(store, session: int, state: TraversalState, perception=None) -> No
     pass's ``perception``, its resume point and coverage in the same transaction
     (:mod:`bomc_bt.pass_resume`)."""
     keys = {progress_key(session): {**state.to_json(), "plan": state.plan.to_json()}}
-    if perception is not None and getattr(perception, "store", None) is store:  # the pass's own store
+    own = perception is not None and getattr(perception, "store", None) is store  # the pass's own store
+    if own:
         keys.update(waypoint_progress(perception, perception.robot))
     store.record([], [], keys)
+    if own:
+        perception.resume_rows.written()
 
 
 def open_pass(store, session: int, resume: bool, make_plan: Callable[[], TraversalPlan]) -> TraversalState:

@@ -25,11 +25,12 @@ from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.walls import Walls
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
-from bomc_bt.pass_resume import ResumeText, earlier_co_observed, frame_progress
+from bomc_bt.pass_resume import earlier_co_observed, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.looked import looked_polygon
 from bomc_bt.perception.projection import ProjectionParams, detections_to_observations, fov_polygon
+from bomc_bt.resume_rows import ResumeRows
 from bomc_bt.robot import RGBDFrame
 from bomc_bt.sightings import Sightings
 from bomc_bt.traversal import TraversalPlan
@@ -329,7 +330,7 @@ seen before it is written. With a store, every frame
     frames: int = 0  # frames processed
     events: list = field(default_factory=list)  # every event of the pass, in order
     last_frame: FrameSeen | None = None  # the latest frame's detections, for the timeline
-    resume_text: ResumeText = field(default_factory=ResumeText, repr=False, compare=False)  # encodes the resume point
+    resume_rows: ResumeRows = field(default_factory=ResumeRows, repr=False, compare=False)  # the resume point's rows
 
     def __post_init__(self, grid: OccupancyGrid) -> None:
         self.coverage = Coverage(grid, self.near_range)
@@ -373,5 +374,6 @@ seen before it is written. With a store, every frame
         self.last_frame = FrameSeen(frame.stamp, frame.shape[::-1], detections, observations)
         if self.store is not None:  # every frame: the resume point moves on even without events
             self.store.record(events, changed, frame_progress(self, self.robot), durable=False)
+            self.resume_rows.written()
         self.events.extend(events)
         return FrameResult(len(detections), len(observations), len(expected), events)

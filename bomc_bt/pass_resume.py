@@ -6,7 +6,8 @@ continued, not replayed: an intra-session change applied before the kill stays a
 and the detector sees what it would have seen. So every commit of the pass -- each
 frame's graph update (:meth:`Perception.process <bomc_bt.monitoring.Perception.process>`)
 and each waypoint's bookkeeping (:func:`bomc_bt.monitor_pass.save_pass`) -- writes, in the
-same SQLite transaction, a *resume point* (progress key ``resume/<session>``):
+same SQLite transaction, a *resume point* (progress key ``resume/<session>`` and the rows of its
+parts below it, each written only when it changed: :mod:`bomc_bt.resume_rows`):
 
 * ``robot``: the robot's own state where it can give one (the simulator: robot time,
   true pose, the world's applied changes, random streams; :mod:`bomc_bt.sim.checkpoint`);
@@ -32,11 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from bomc_bt.json_text import AppendOnlyJSON, EncodedJSON, JSONMemo, dumps, dumps_raw, encoded_object
-
-
-def resume_key(session: int) -> str:
-    return f"resume/{session}"
+from bomc_bt.json_text import JSONMemo
+from bomc_bt.resume_rows import load_resume_point
 
 
 def coverage_key(session: int) -> str:
@@ -58,12 +56,13 @@ def near_key(session: int) -> str:
     return f"coverage_near/{session}"
 
 
-def resume_point(perception, robot) -> dict[str, Any]:
-    """The pass's state at this moment (see the module docstring)."""
+def resume_point(perception, robot, memo: JSONMemo | None = None) -> dict[str, Any]:
+    """The pass's state at this moment (see the module docstring; ``memo``: the graph's maps
+    as text, :meth:`ObjectGraph.pass_state <bomc_bt.graph.ObjectGraph.pass_state>`)."""
     checkpoint = getattr(robot, "checkpoint", None)
     return {
         "robot": checkpoint() if callable(checkpoint) else None,
-        "graph": perception.graph.pass_state(),
+        "graph": perception.graph.pass_state(memo),
         "frames": perception.frames,
         "fov_since": perception.fov_since,
         "looked_since": perception.looked_since,
@@ -72,43 +71,17 @@ def resume_point(perception, robot) -> dict[str, Any]:
 
 
 def frame_progress(perception, robot) -> dict[str, Any]:
-    """The progress keys a frame's commit writes: the resume point, already encoded
-    (:class:`ResumeText`; the same text :func:`resume_point` would be stored as)."""
-    return {resume_key(perception.session): perception.resume_text.encode(perception, robot)}
-
-
-class ResumeText:
-    """A pass's resume point as JSON text, each view polygon and each graph entry that did
-    not change encoded once.
-
-    The point is written with every frame and carries every view polygon since the last
-    waypoint and the graph's per-node pass state; encoding them anew each frame cost time
-    growing with the frames since the waypoint and with the nodes (:mod:`bomc_bt.json_text`).
-    The text equals ``json.dumps`` of :func:`resume_point` byte for byte (tests/test_json_text.py)."""
-
-    def __init__(self) -> None:
-        self.graph = JSONMemo()
-        self.fov = AppendOnlyJSON()
-        self.looked = AppendOnlyJSON()
-        self.sighted = AppendOnlyJSON()
-
-    def encode(self, perception, robot) -> EncodedJSON:
-        checkpoint = getattr(robot, "checkpoint", None)
-        return encoded_object({
-            "robot": dumps(checkpoint() if callable(checkpoint) else None),
-            "graph": dumps_raw(perception.graph.pass_state(self.graph)),
-            "frames": dumps(perception.frames),
-            "fov_since": self.fov.text(perception.fov_since),
-            "looked_since": self.looked.text(perception.looked_since),
-            "sighted_since": self.sighted.text(perception.sightings.since),
-        })
+    """The progress rows a frame's commit writes: the resume point's that changed
+    (:class:`~bomc_bt.resume_rows.ResumeRows`; call its ``written`` once they are)."""
+    rows = perception.resume_rows
+    return rows.rows(perception.session, resume_point(perception, robot, rows.graph))
 
 
 def waypoint_progress(perception, robot) -> dict[str, Any]:
     """The progress keys a waypoint's commit writes besides the plan: a coverage snapshot
-    and the resume point (whose list of view polygons starts again after the snapshot)."""
+    and the resume point (whose lists of view polygons start again after the snapshot)."""
     perception.fov_since, perception.looked_since, perception.sightings.since = [], [], []
-    return {**coverage_masks(perception), resume_key(perception.session): resume_point(perception, robot)}
+    return {**coverage_masks(perception), **frame_progress(perception, robot)}
 
 
 def coverage_masks(perception) -> dict[str, str]:
@@ -126,7 +99,7 @@ def earlier_co_observed(store, session: int) -> list[tuple[int, int]]:
     frame (:mod:`bomc_bt.graph.co_observed`; that pass's own and those it carried); none
     before the first pass or where no earlier pass saved one."""
     for earlier in sorted((s.number for s in store.sessions() if s.number < session), reverse=True):
-        point = store.get_progress(resume_key(earlier))
+        point = load_resume_point(store, earlier)
         state = ((point.get("graph") or {}).get("co_observed") or {}) if isinstance(point, dict) else {}
         if state.get("pairs") is not None:
             return [(int(a), int(b)) for a, b in state["pairs"]]
@@ -136,7 +109,7 @@ def earlier_co_observed(store, session: int) -> list[tuple[int, int]]:
 def restore_pass(store, session: int, robot, perception) -> bool:
     """Put a killed pass's saved state back into ``robot`` and ``perception`` (and its
     graph); False when nothing was saved (the pass was killed before its first commit)."""
-    point = store.get_progress(resume_key(session))
+    point = load_resume_point(store, session)
     if not isinstance(point, dict):
         return False
     restore = getattr(robot, "restore", None)

@@ -24,7 +24,8 @@ Tables:
   :meth:`SiteStore.events` leaves out unless asked: a pass's events are what it observed.
 * ``sessions`` -- one row per monitor pass: started/ended robot time and wall time (the
   wall time is for people reading the report, never for timing), outcome, counts, report.
-* ``progress`` -- small JSON key/value pairs for resuming a mission (next waypoint index).
+* ``progress`` -- JSON key/value pairs for resuming a mission: a pass's plan and next waypoint,
+  its masks, its resume point in rows written when changed (:mod:`bomc_bt.resume_rows`).
 * ``region_passes`` -- per pass and map region: how much of it was seen, how many changes
   (the change model's history, :mod:`bomc_bt.change_model`; version 4 on).
 
@@ -51,8 +52,8 @@ from bomc_bt.errors import BomcError
 from bomc_bt.graph import OPERATOR_KINDS, PRESENT, AssociationParams, Event, Node, ObjectGraph
 from bomc_bt.graph.history import replay_graph  # also what readers of the central store replay
 from bomc_bt.graph.operator_edits import OperatorEdits
-from bomc_bt.json_text import EncodedJSON
 from bomc_bt.json_text import to_jsonable as _jsonable
+from bomc_bt.store_progress import put_progress as _put_progress
 from bomc_bt.store_schema import (
     EVENT_COLUMNS,
     NAMES,
@@ -95,11 +96,8 @@ class SiteStore:
     """The persistent graph of one site. ``path`` is ``<site>/site.db`` or the site folder."""
 
     def __init__(self, path: str | Path, busy_timeout: float = 2.0, readonly: bool = False):
-        path = Path(path)
-        if path.is_dir():
-            path = path / FILENAME
-        self.path = path
-        self.readonly = readonly
+        path = Path(path) / FILENAME if Path(path).is_dir() else Path(path)
+        self.path, self.readonly = path, readonly
         self._lock = threading.Lock()
         if not readonly:
             try:
@@ -226,8 +224,7 @@ class SiteStore:
                 raise BomcError(f"session {number} was never begun", self.path, "sessions")
             self._reconcile(db, number, stamp)
             db.executemany("INSERT OR REPLACE INTO region_passes VALUES (?, ?, ?, ?, ?, ?, ?)", regions)
-            for key, value in (progress or {}).items():
-                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, _progress_text(value)))
+            _put_progress(db, progress)
             counts = dict(db.execute(
                 f"SELECT kind, COUNT(*) FROM node_history WHERE session=? AND kind NOT IN {_OPERATOR_SQL}"
                 " GROUP BY kind", (number,)
@@ -296,8 +293,7 @@ class SiteStore:
                      int(n.first_session), int(n.last_session), n.state, int(n.observations), int(n.misses),
                      *box, *look),
                 )
-            for key, value in (progress or {}).items():
-                db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, _progress_text(value)))
+            _put_progress(db, progress)
 
     def load_graph(self, params: AssociationParams) -> ObjectGraph:
         """The live graph (present nodes) with the operator's edits it must respect; new ids
@@ -372,11 +368,17 @@ class SiteStore:
     def set_progress(self, key: str, value: Any) -> None:
         """Store a JSON-able value (e.g. the next waypoint index) for resuming."""
         with self._transaction("set_progress") as db:
-            db.execute("INSERT OR REPLACE INTO progress VALUES (?, ?)", (key, _progress_text(value)))
+            _put_progress(db, {key: value})
 
     def get_progress(self, key: str, default: Any = None) -> Any:
         rows = self._query("SELECT value FROM progress WHERE key=?", (key,), "J", "progress")
         return rows[0][0] if rows else default
+
+    def progress_below(self, key: str) -> dict[str, Any]:
+        """Row ``key`` and the rows below it (``key/...``), read in one statement: one moment's
+        rows while a pass is writing them (:mod:`bomc_bt.resume_rows`)."""
+        sql = "SELECT key, value FROM progress WHERE key=? OR substr(key, 1, ?)=?"
+        return dict(self._query(sql, (key, len(key) + 1, key + "/"), "sJ", "progress"))
 
 
 def _xyz(p: np.ndarray) -> np.ndarray:
@@ -392,9 +394,3 @@ def _now() -> str:
 
 def _opt_float(value: Any) -> float | None:
     return None if value is None else float(value)
-
-
-def _progress_text(value: Any) -> str:
-    """A progress value as stored: JSON, or the text of one already encoded (a pass's
-    resume point, :mod:`bomc_bt.json_text`)."""
-    return value.text if isinstance(value, EncodedJSON) else json.dumps(value, default=_jsonable)

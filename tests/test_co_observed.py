@@ -8,8 +8,9 @@ from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observati
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.monitoring import Perception
 from bomc_bt.net_changes import net_changes
-from bomc_bt.pass_resume import earlier_co_observed, resume_key
+from bomc_bt.pass_resume import earlier_co_observed
 from bomc_bt.perception.projection import ProjectionParams
+from bomc_bt.resume_rows import resume_key
 from bomc_bt.store import SiteStore
 
 

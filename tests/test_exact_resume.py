@@ -21,7 +21,7 @@ from site_files import bomc_command, bomc_env, error_line
 from bomc_bt import run
 from bomc_bt.evaluate_site import evaluate_session
 from bomc_bt.officegen import OfficeParams, generate_office
-from bomc_bt.pass_resume import resume_key
+from bomc_bt.resume_rows import load_resume_point
 from bomc_bt.store import SiteStore
 from bomc_bt.world import load_world
 
@@ -46,7 +46,7 @@ def final_graph(site: Path, session: int) -> list[tuple]:
 
 def saved_robot_time(site: Path, session: int) -> float:
     with SiteStore(site, readonly=True) as store:
-        point = store.get_progress(resume_key(session)) or {}
+        point = load_resume_point(store, session) or {}
     robot = point.get("robot") or {}
     return robot.get("steps", 0) * 0.1
 
