@@ -48,8 +48,10 @@ class ResumeRows:
     def __init__(self) -> None:
         self.graph = JSONMemo()  # the graph's pass state, each map entry encoded once
         self._lists: dict[str, tuple[list, list[str]]] = {}  # each split list and its items' texts
-        self._written: dict[str, str] = {}  # row -> text, as last written
-        self._pending: dict[str, str | None] = {}  # rows of the last call, None: to delete
+        self._written: dict[str, str] = {}  # the shell's and each map member's row -> text, as last written
+        self._counted: dict[str, tuple[list, int]] = {}  # each split list and its rows, as last written
+        self._pending: dict[str, str | None] = {}  # the last call's shell and member rows, None: to delete
+        self._pending_counts: dict[str, tuple[list, int]] = {}  # and its lists' rows
 
     def rows(self, session: int, point: dict[str, Any]) -> dict[str, Any]:
         """The progress rows to write for ``point`` (``graph`` encoded with :attr:`graph`;
@@ -63,15 +65,16 @@ class ResumeRows:
             if members is not None:
                 layout[path] = list(members)
                 texts.update((f"{prefix}/{path}/{name}", _text(v)) for name, v in members.items())
+        items: dict[str, str | None] = {}
+        self._pending_counts = {}
         for path in SPLIT_LISTS:
-            items = self._items(path, shell.pop(path))
-            layout[path] = len(items)
-            texts.update((f"{prefix}/{path}/{k}", text) for k, text in enumerate(items))
+            layout[path] = self._item_rows(f"{prefix}/{path}", path, shell.pop(path), items)
         shell["parts"] = layout
         texts[prefix] = dumps_raw(shell)
         self._pending = {row: text for row, text in texts.items() if not _same_text(self._written.get(row), text)}
         self._pending.update((row, None) for row in self._written if row not in texts)
-        return {row: DROP if text is None else EncodedJSON(text) for row, text in self._pending.items()}
+        return {row: DROP if text is None else EncodedJSON(text) for row, text in (*self._pending.items(),
+                                                                                   *items.items())}
 
     def written(self) -> None:
         """The rows of the last :meth:`rows` are in the store (call after its transaction)."""
@@ -80,7 +83,20 @@ class ResumeRows:
                 self._written.pop(row, None)
             else:
                 self._written[row] = text
-        self._pending = {}
+        self._counted.update(self._pending_counts)
+        self._pending, self._pending_counts = {}, {}
+
+    def _item_rows(self, row: str, path: str, listed: list, out: dict[str, str | None]) -> int:
+        """Put into ``out`` the rows (below ``row``) of the items of list ``path`` not written
+        yet: those appended since, or every item of a new list and None for the rows of the
+        old one past its end. Returns the list's length."""
+        encoded = self._items(path, listed)
+        kept, count = self._counted.get(path, (None, 0))
+        start = count if kept is listed and count <= len(encoded) else 0
+        out.update((f"{row}/{k}", encoded[k]) for k in range(start, len(encoded)))
+        out.update((f"{row}/{k}", None) for k in range(len(encoded), count))
+        self._pending_counts[path] = (listed, len(encoded))
+        return len(encoded)
 
     def _items(self, path: str, items: list) -> list[str]:
         """The texts of ``items``, each encoded once while the list is the same object and
