@@ -165,8 +165,8 @@ def place_taken(nodes: Sequence[Node], observations: Sequence[Observation], radi
     as its own kind, named otherwise at its place, is the detector confusing it (one object,
     one label), which a detector may do from one viewpoint frame after frame. A node not
     yet seen and named otherwise once counts one miss, which its next sighting ends.
-    ``last_seen`` is not saved with the resume point, so a pass resumed after a kill treats
-    the nodes it saw before the kill as not yet seen, as Look Around's stale turns do.
+    ``last_seen`` is saved with the resume point (:meth:`ObjectGraph.pass_state
+    <bomc_bt.graph.ObjectGraph.pass_state>`), so a resumed pass tells them apart as the pass did.
     """
     if radius <= 0.0 or not observations or not nodes:
         return np.zeros(len(nodes), dtype=bool)
