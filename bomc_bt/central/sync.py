@@ -10,7 +10,8 @@ What is pushed, per map generation of the site (:mod:`bomc_bt.central.site_files
 * the generation row (with the robot that first pushed it) and its map files;
 * node history after the central's last ``seq`` for that generation (append-only:
   only new rows travel, by ``COPY``);
-* sessions, nodes and resume progress whose row differs from the central one;
+* sessions, nodes and resume progress whose row differs from the central one (and the
+  central progress rows the site no longer has are deleted);
 * report files whose SHA-256 differs.
 
 Before pushing, the site must *extend* what the central store has for that generation:
@@ -113,6 +114,7 @@ def _push_graph(conn: Any, key: tuple[str, str, int], store: Path, robot: str, r
     check_extends(key, store, local, central, head, conn)
     for table in ("sessions", "nodes", "progress", "region_passes"):
         result.add(table, _upsert_changed(conn, table, key, local.table(table), central.table(table), robot))
+    result.add("progress rows dropped", _drop_gone(conn, key, local.progress, central.progress))
     if local.node_history:
         cols = ", ".join(("building", "floor", "generation", *COLUMNS["node_history"]))
         with conn.cursor().copy(f"COPY bomc.node_history ({cols}) FROM STDIN") as copy:
@@ -159,6 +161,16 @@ def _upsert_changed(conn: Any, table: str, key: tuple[str, str, int], local: lis
     with conn.cursor() as cur:
         cur.executemany(sql, [(*key, *row, *((robot,) if extra else ())) for row in changed])
     return len(changed)
+
+
+def _drop_gone(conn: Any, key: tuple[str, str, int], local: list[tuple], central: list[tuple]) -> int:
+    """Delete the central progress rows the site no longer has (the parts of a pass's resume
+    point it dropped, :mod:`bomc_bt.resume_rows`), so the central rows are the site's; returns how many."""
+    gone = sorted({row[0] for row in central} - {row[0] for row in local})
+    if gone:
+        conn.execute("DELETE FROM bomc.progress WHERE building = %s AND floor = %s AND generation = %s"
+                     " AND key = ANY(%s)", (*key, gone))
+    return len(gone)
 
 
 def _push_files(conn: Any, key: tuple[str, str, int], files: dict[str, Path]) -> int:
