@@ -66,10 +66,14 @@ class AppendOnlyJSON:
 
     def text(self, items: list, value: Callable[[Any], Any] | None = None) -> str:
         """``dumps([value(v) for v in items])`` (``value`` None: the items as they are)."""
+        return "[" + ", ".join(self.parts(items, value)) + "]"
+
+    def parts(self, items: list, value: Callable[[Any], Any] | None = None) -> list[str]:
+        """Each item's text, ``dumps(value(v))``, in order (kept by the encoder: read, never change it)."""
         if items is not self._items or len(items) < len(self._parts):
             self._items, self._parts = items, []
         self._parts.extend(dumps(item if value is None else value(item)) for item in items[len(self._parts):])
-        return "[" + ", ".join(self._parts) + "]"
+        return self._parts
 
 
 def dumps_raw(value: Any) -> str:

@@ -27,7 +27,7 @@ from __future__ import annotations
 from typing import Any
 
 from bomc_bt.errors import BomcError
-from bomc_bt.json_text import DROP, EncodedJSON, JSONMemo, dumps, dumps_raw
+from bomc_bt.json_text import DROP, AppendOnlyJSON, EncodedJSON, JSONMemo, dumps, dumps_raw
 
 # paths of the maps stored a row per member, inner ones before the map that holds them
 SPLIT_MAPS = ("robot/obstacles/tiles", "robot/rng", "robot/navigation", "graph/extents", "graph/tentative", "graph")
@@ -47,7 +47,7 @@ class ResumeRows:
 
     def __init__(self) -> None:
         self.graph = JSONMemo()  # the graph's pass state, each map entry encoded once
-        self._lists: dict[str, tuple[list, list[str]]] = {}  # each split list and its items' texts
+        self._lists: dict[str, AppendOnlyJSON] = {}  # each split list's items' texts, each encoded once
         self._written: dict[str, str] = {}  # the shell's and each map member's row -> text, as last written
         self._counted: dict[str, tuple[list, int]] = {}  # each split list and its rows, as last written
         self._pending: dict[str, str | None] = {}  # the last call's shell and member rows, None: to delete
@@ -90,22 +90,13 @@ class ResumeRows:
         """Put into ``out`` the rows (below ``row``) of the items of list ``path`` not written
         yet: those appended since, or every item of a new list and None for the rows of the
         old one past its end. Returns the list's length."""
-        encoded = self._items(path, listed)
+        encoded = self._lists.setdefault(path, AppendOnlyJSON()).parts(listed)
         kept, count = self._counted.get(path, (None, 0))
         start = count if kept is listed and count <= len(encoded) else 0
         out.update((f"{row}/{k}", encoded[k]) for k in range(start, len(encoded)))
         out.update((f"{row}/{k}", None) for k in range(len(encoded), count))
         self._pending_counts[path] = (listed, len(encoded))
         return len(encoded)
-
-    def _items(self, path: str, items: list) -> list[str]:
-        """The texts of ``items``, each encoded once while the list is the same object and
-        only grows (a new or shorter list starts again)."""
-        kept = self._lists.get(path)
-        if kept is None or kept[0] is not items or len(items) < len(kept[1]):
-            kept = self._lists[path] = (items, [])
-        kept[1].extend(dumps(item) for item in items[len(kept[1]):])
-        return kept[1]
 
 
 def load_resume_point(store, session: int) -> Any:
