@@ -245,6 +245,7 @@ def test_a_goal_lost_on_the_way_costs_one_wait_not_one_per_step(bridge):
         later = time.monotonic() - start
         assert robot.now() > before  # the simulator kept stepping
         assert first < 3 * COUNT_WAIT and later < 2 * COUNT_WAIT, (first, later)
+        assert [kinds for _t, kinds in robot.lockstep.gave_up] == [["bridge: goals"]]  # and said so, once
         handle = robot.navigate(Pose2D(6.0, 6.5, 0.0))  # and the next real goal still works
         assert _until_done(robot, handle) is Status.SUCCEEDED
     finally:
@@ -385,16 +386,51 @@ def test_build_and_monitor_through_ros_match_the_direct_simulator(roscore, lab_b
     assert (lab_b.ros / "trajectory.csv").read_bytes() == (lab_b.again / "trajectory.csv").read_bytes()
     assert _cells_differ(lab_b.ros, lab_b.direct) == 0, "the ROS build's map is not the direct build's"
 
-    result = _monitor_ros(roscore, lab_b.ros)
+    site, result, gaps = _lossless_pass(roscore, lab_b.ros, lab_b.root / "ros-pass")
     assert result.succeeded and result.summary["outcome"] == "completed"
-    report = json.loads((lab_b.ros / "sessions" / "1" / "report.json").read_text())
+    report = json.loads((site / "sessions" / "1" / "report.json").read_text())
     assert report["traversal"]["visited"] == report["traversal"]["waypoints"] > 0
     assert report["path_length_m"] > 10.0  # odometry through tf
     assert lab_b.direct_f1 > 0.5
-    assert abs(_f1(lab_b.ros) - lab_b.direct_f1) <= 0.05  # the ROS chain vs the direct chain
+    assert abs(_f1(site) - lab_b.direct_f1) <= 0.05  # the ROS chain vs the direct chain
 
-    assert _monitor_ros(roscore, lab_b.again).succeeded  # ... and so is the pass on it
-    assert json.loads((lab_b.again / "sessions" / "1" / "report.json").read_text()) == report
+    # ... and the pass on the twin build is the same pass, frame for frame.
+    again, again_result, again_gaps = _lossless_pass(roscore, lab_b.again, lab_b.root / "again-pass")
+    assert again_result.succeeded
+    assert json.loads((again / "sessions" / "1" / "report.json").read_text()) == report, (
+        f"pose lookups without tf: {gaps} and {again_gaps}")
+
+
+class _Transport:
+    """Tree hook: what a pass's ROS robot lost on the way (camera images that never became
+    frames, lockstep waits given up). In lockstep nothing should be lost, but a loaded machine
+    now and then drops a message all the same; test_ros_frames.py pins how a pass goes on then."""
+
+    def __init__(self):
+        self.robot = None
+
+    def __call__(self, runner) -> None:
+        self.robot = runner.robot
+
+    def losses(self) -> list[str]:
+        images = [f"camera image of {p.stamp:.2f} s: {p.why}" for p in self.robot.images.passed_over]
+        waits = [f"tick to {t:.2f} s: {', '.join(m)} never came" for t, m in self.robot.lockstep.gave_up]
+        return images + waits
+
+
+def _lossless_pass(env: dict, build: Path, site: Path, tries: int = 3):
+    """A ROS monitor pass on a copy of ``build`` that lost no message: (site, result, pose
+    lookups that found no tf). A pass that lost one is run again on a fresh copy (a lost
+    message is the machine's, not the lockstep's), up to ``tries`` times."""
+    losses = []
+    for attempt in range(tries):
+        where = _copy_build(build, site.with_name(f"{site.name}-{attempt}"))
+        transport = _Transport()
+        result = _monitor_ros(env, where, hooks=[transport])
+        if not transport.losses():
+            return where, result, transport.robot.pose_gaps
+        losses.append(transport.losses())
+    pytest.fail(f"every one of {tries} passes lost messages: {losses}")
 
 
 class _NavFailures:

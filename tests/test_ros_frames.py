@@ -9,15 +9,14 @@ Messages are delivered here by hand, so "lost" and "late" are exact.
 from __future__ import annotations
 
 import json
-import math
 import threading
-from collections import deque
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
 from bomc_bt.errors import BomcError, MissionFailed
+from bomc_bt.ros.image_pairs import ImagePairs, PassedOver
 from bomc_bt.ros.params import RosParams
 
 try:
@@ -48,8 +47,7 @@ class Camera:
         robot.params = RosParams(instances_topic=TOPIC, frame_timeout=2.0)
         robot.rospy = SimpleNamespace(logwarn=self.warnings.append)
         robot._lock = threading.Lock()
-        robot._rgb, robot._depth = deque(maxlen=30), deque(maxlen=30)
-        robot._pending, robot._last_stamp, robot._image_seen_at = None, -math.inf, {}
+        robot.images, robot._pending = ImagePairs(robot.params.sync_slop), None
         robot._info = CameraInfo(height=H, width=W, K=[5.0, 0, 3, 0, 5.0, 2, 0, 0, 1])
         robot._lookup = lambda *_args: np.eye(4)
         robot.now = lambda: self.clock
@@ -63,11 +61,8 @@ class Camera:
     def image(self, t: float) -> None:
         """The bridge's RGB and depth images stamped ``t``."""
         depth, step = encode_depth(np.full((H, W), 2.0, np.float32), "32FC1")
-        for queue, encoding, data, row in (
-            (self.robot._depth, "32FC1", depth, step),
-            (self.robot._rgb, "rgb8", bytes(H * W * 3), W * 3),
-        ):
-            queue.append(self._msg(t, encoding, data, row))
+        for kind, encoding, data, row in (("depth", "32FC1", depth, step), ("rgb", "rgb8", bytes(H * W * 3), W * 3)):
+            self.robot.images.add(kind, self._msg(t, encoding, data, row), self.clock)
 
     def truth(self, t: float) -> None:
         """The instance image of ``t`` and its info record."""
@@ -96,6 +91,19 @@ def test_a_frame_whose_instance_image_was_lost_is_skipped_for_the_next_one():
     assert len(got) == 1 and got[0].stamp == pytest.approx(2.2)
     assert got[0].instance_categories == {7: "chair"}
     assert any("2.00 s was lost" in w for w in camera.warnings)
+    assert camera.robot.images.passed_over == [PassedOver(2.0, "ground truth lost")]  # what the ROS tests read
+
+
+def test_a_newer_pair_passes_the_older_images_over_and_says_so():
+    camera = Camera()
+    for t in (1.0, 1.5, 2.0):  # three frames came before the leaf asked for one
+        camera.clock = t
+        camera.image(t)
+        camera.truth(t)
+    frame = camera.robot.frame()
+    assert frame is not None and frame.stamp == pytest.approx(2.0)
+    assert camera.robot.images.passed_over == [PassedOver(1.0, "newer pair"), PassedOver(1.5, "newer pair")]
+    assert camera.robot.frame() is None  # nothing newer yet: no frame twice
 
 
 def test_a_late_instance_image_is_waited_for_not_skipped():

@@ -33,7 +33,7 @@ from bomc_bt.ros.params import RosParams
 
 LOCALIZED_STD = (0.05, 0.03)  # m, rad: the covariance /amcl_pose reports once localized
 LOST_STD = (2.0, 1.5)  # ... and while not localized (after a failed or global request)
-COUNT_WAIT = 2.0  # wall s to wait for announced goals to arrive before stepping anyway
+COUNT_WAIT = 2.0  # wall s to wait for announced requests before stepping anyway (< ros.clock_timeout)
 IDLE_ANNOUNCE = 0.1  # wall s between re-announcements (clock, stepped) while waiting for a tick
 
 
@@ -68,8 +68,11 @@ class SimBridge:
         self.wake = threading.Condition()
         self.inbox: list[tuple[str, Any]] = []
         self.until = sim.now()
-        self.wanted = {"goals": 0, "cancels": 0, "initialposes": 0}
-        self.got = {"goals": 0, "cancels": 0, "initialposes": 0}
+        # requests the executive announced with its ticks / received here: a tick is stepped
+        # once its requests are in, so a service call is applied at the tick it was made in
+        self.wanted = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0}
+        self.got = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0}
+        self.stepped_without: dict[str, int] = {}  # requests stepped without (given up after COUNT_WAIT)
         self.goal: tuple[Any, Any] | None = None  # (server goal handle, sim NavHandle)
         self.reloc: Any = None
         self._srv_empty = EmptyResponse
@@ -84,11 +87,7 @@ class SimBridge:
         )
         self.services = [
             rospy.Service(params.global_localization_service, Empty, self._on_global),
-            rospy.Service(
-                params.nomotion_update_service or "/request_nomotion_update",
-                Empty,
-                lambda _r: EmptyResponse(),
-            ),
+            rospy.Service(params.nomotion_update_service or "/request_nomotion_update", Empty, self._on_nomotion),
         ]
         if params.clear_costmaps_service:
             self.services.append(rospy.Service(params.clear_costmaps_service, Empty, self._on_clear_costmaps))
@@ -139,12 +138,19 @@ class SimBridge:
         self._queue("initialpose", msg, "initialposes")
 
     def _on_global(self, _req: Any) -> Any:
-        self._queue("global", None)
+        self._queue("global", None, "services")
         return self._srv_empty()
 
     def _on_clear_costmaps(self, _req: Any) -> Any:
-        self._queue("clear_costmaps", None)
+        self._queue("clear_costmaps", None, "services")
         return self._srv_empty()
+
+    def _on_nomotion(self, _req: Any) -> Any:
+        self._queue("nomotion", None, "services")  # the simulated AMCL needs no nudge
+        return self._srv_empty()
+
+    def _apply_nomotion(self, _item: Any) -> None:
+        pass
 
     def _apply_clear_costmaps(self, _item: Any) -> None:
         self.sim.clear_costmaps()
@@ -241,6 +247,7 @@ class SimBridge:
                                f"within {COUNT_WAIT} s")
             for k in behind:
                 self.got[k] = self.wanted[k]
+                self.stepped_without[k] = self.stepped_without.get(k, 0) + behind[k]
 
     def step(self) -> None:
         """One simulator step, then everything it changed, then the clock."""
@@ -287,6 +294,7 @@ class SimBridge:
             "stamps": self.out.sent,
             "tf": self.out.tf_announcement(),
             "result": {self.result_topic: self.server.last_result},
+            "stepped_without": self.stepped_without,  # requests given up on so far, per kind
         }
         self.stepped_pub.publish(String(data=json.dumps(data)))
 

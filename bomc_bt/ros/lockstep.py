@@ -41,6 +41,8 @@ class LockstepClient:
         self._received: dict[str, int] = {}  # resolved topic -> newest stamp (ns) received
         self._tracked: set[str] = set()  # the resolved topics track() subscribed to
         self._unsynced: set[str] = set()  # announced things that once never came: not waited for
+        self.gave_up: list[tuple[float, list[str]]] = []  # (tick time, what it / the bridge waited for in vain)
+        self.bridge_stepped_without: dict[str, int] = {}  # the bridge's count of requests it stepped without
         self.clock_seen = threading.Event()
         self.subs: list[Any] = []
         if use_sim_time:
@@ -80,6 +82,10 @@ class LockstepClient:
 
     def _on_stepped(self, msg: Any) -> None:
         data = json.loads(msg.data)
+        for kind, count in data.get("stepped_without", {}).items():  # the bridge gave up on requests
+            if count > self.bridge_stepped_without.get(kind, 0):
+                self.bridge_stepped_without[kind] = count
+                self.gave_up.append((float(data["until"]), [f"bridge: {kind}"]))
         with self._arrived:
             self._stepped = data  # one publisher, in order: the last one is the newest
             self._unsynced.discard(self.params.stepped)
@@ -125,6 +131,7 @@ class LockstepClient:
             if time.monotonic() > deadline:
                 with self._arrived:
                     self._unsynced |= missing
+                self.gave_up.append((target, sorted(missing)))
                 self.rospy.logwarn(
                     f"bomc: {', '.join(sorted(missing))} not received within {wait:g} s of the bridge's "
                     f"step to {target:.2f} s; not waited for until one comes (ros.lockstep_wait)"

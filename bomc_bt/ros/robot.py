@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections import deque
 from typing import Any
 
 import numpy as np
@@ -38,6 +37,7 @@ from bomc_bt.ros.convert import (
     transform_matrix,
 )
 from bomc_bt.ros.costmap import GlobalCostmap
+from bomc_bt.ros.image_pairs import ImagePairs
 from bomc_bt.ros.lockstep import LockstepClient
 from bomc_bt.ros.map_refresh import MapRefresh
 from bomc_bt.ros.move_base import MoveBaseClient, NavGoal
@@ -73,11 +73,9 @@ class RosRobot:
         self._info: Any = None
         self._amcl: tuple[int, Any] | None = None
         self.amcl_count = 0
-        self._rgb: deque = deque(maxlen=30)
-        self._depth: deque = deque(maxlen=30)
+        self.images = ImagePairs(p.sync_slop)  # its passed_over: camera images that never became frames
         self._pending: dict[str, Any] | None = None
-        self._last_stamp = -math.inf
-        self._image_seen_at: dict[str, float] = {}
+        self.pose_gaps = 0  # pose() calls that found no map <- base tf while localized
         self.counts = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0}
         self._nav: NavGoal | None = None
         self._reloc: AmclRelocalization | None = None
@@ -90,8 +88,8 @@ class RosRobot:
             track(p.map_topic, numpy_msg(GridMsg), self._on_map, queue_size=1),
             track(p.scan_topic, ScanMsg, self._keep("_scan_msg"), queue_size=1),
             track(p.amcl_pose_topic, PoseWithCovarianceStamped, self._on_amcl, queue_size=5),
-            track(p.rgb_topic, Image, self._on_image(self._rgb, "rgb"), queue_size=5, buff_size=2**24),
-            track(p.depth_topic, Image, self._on_image(self._depth, "depth"), queue_size=5, buff_size=2**24),
+            track(p.rgb_topic, Image, self._on_image("rgb"), queue_size=5, buff_size=2**24),
+            track(p.depth_topic, Image, self._on_image("depth"), queue_size=5, buff_size=2**24),
             track(p.camera_info_topic, CameraInfo, self._keep("_info"), queue_size=1),
         ]
         self.costmap = GlobalCostmap()
@@ -161,11 +159,10 @@ class RosRobot:
             self.amcl_count += 1
             self._amcl = (self.amcl_count, msg)
 
-    def _on_image(self, queue: deque, kind: str):
+    def _on_image(self, kind: str):
         def callback(msg: Any) -> None:
             with self._lock:
-                queue.append(msg)
-                self._image_seen_at.setdefault(kind, self.now())
+                self.images.add(kind, msg, self.now())
 
         return callback
 
@@ -236,7 +233,11 @@ class RosRobot:
         return None if m is None else pose2d_from_matrix(m)
 
     def pose(self) -> Pose2D | None:
-        return self.pose_now() if self.localized else None
+        if not self.localized:
+            return None
+        pose = self.pose_now()
+        self.pose_gaps += pose is None
+        return pose
 
     def live_map(self) -> OccupancyGrid:
         with self._lock:
@@ -274,9 +275,9 @@ class RosRobot:
         now = self.now()
         with self._lock:
             if self._pending is None:
-                self._pending = self._newest_pair(now)
+                self._pending = self.images.newest(now)
             pending, info = self._pending, self._info
-            self._check_unpaired(now)
+            self.images.check_unpaired(now, p.frame_timeout, p.rgb_topic, p.depth_topic)
         if pending is None:
             return None
         waited = now - pending["received"]
@@ -294,6 +295,7 @@ class RosRobot:
         truth_missing = self.ground_truth is not None and not self.ground_truth.ready(pending["stamp"])
         if truth_missing and self.ground_truth.lost(pending["stamp"]):
             self._pending = None  # the next call takes a newer pair
+            self.images.drop(pending["stamp"], "ground truth lost")
             self.rospy.logwarn(f"bomc: the instance image of {pending['stamp']:.2f} s was lost; frame skipped")
             return None
         if T_map_base is None or T_base_camera is None or truth_missing:
@@ -318,30 +320,6 @@ class RosRobot:
             depth_range=(p.depth_min, p.depth_max),
         )
         return frame if self.ground_truth is None else self.ground_truth.attach(frame)
-
-    def _newest_pair(self, now: float) -> dict[str, Any] | None:
-        """The newest RGB/depth pair within ``sync_slop`` newer than the last frame returned."""
-        slop = self.params.sync_slop
-        for depth in reversed(self._depth):
-            ds = _stamp(depth)
-            if ds <= self._last_stamp:
-                break
-            best = min(self._rgb, key=lambda m: abs(_stamp(m) - ds), default=None)
-            if best is not None and abs(_stamp(best) - ds) <= slop:
-                self._last_stamp = ds
-                return {"stamp": ds, "rgb": best, "depth": depth, "received": now}
-        return None
-
-    def _check_unpaired(self, now: float) -> None:
-        """Images on one topic but never a partner on the other: a misnamed topic."""
-        p = self.params
-        seen = self._image_seen_at
-        for kind, other, topic in (("rgb", "depth", p.depth_topic), ("depth", "rgb", p.rgb_topic)):
-            if kind in seen and other not in seen and now - seen[kind] > p.frame_timeout:
-                raise MissionFailed(
-                    f"{kind} images arrive but none on {topic} within {p.frame_timeout:.0f} s "
-                    f"(ros.{other}_topic)"
-                )
 
     # -- port: navigation and localization ---------------------------------------------------
     def navigate(self, goal: Pose2D) -> Handle:
@@ -395,6 +373,3 @@ class RosRobot:
 
         threading.Thread(target=call, name=f"bomc-{name}", daemon=True).start()
 
-
-def _stamp(msg: Any) -> float:
-    return round(msg.header.stamp.to_sec(), 6)
