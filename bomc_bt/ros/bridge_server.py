@@ -70,8 +70,8 @@ class SimBridge:
         self.until = sim.now()
         # requests the executive announced with its ticks / received here: a tick is stepped
         # once its requests are in, so a service call is applied at the tick it was made in
-        self.wanted = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0}
-        self.got = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0}
+        self.wanted = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0, "maps": 0}
+        self.got = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0, "maps": 0}
         self.stepped_without: dict[str, int] = {}  # requests stepped without (given up after COUNT_WAIT)
         self.goal: tuple[Any, Any] | None = None  # (server goal handle, sim NavHandle)
         self.reloc: Any = None
@@ -157,7 +157,7 @@ class SimBridge:
 
     def _on_map(self, msg: Any) -> None:
         if msg._connection_header.get("callerid") != self.rospy.get_name():  # not the map it serves itself
-            self._queue("map", msg)
+            self._queue("map", msg, "maps")
 
     def _apply_map(self, msg: Any) -> None:
         """A new map on /map: navigate on it, as move_base's static layer would."""

@@ -162,7 +162,7 @@ class LockstepClient:
         return missing
 
     def wait_for_bridge(self, subs: list[Any], now: float, counts: dict[str, int],
-                        awaits_result: Callable[[str], bool]) -> None:
+                        awaits_result: Callable[[str], bool], pubs: tuple[Any, ...] = ()) -> None:
         """A bridge announcing its steps: be connected to it before the first tick.
 
         A message published before a subscription connects is lost to it, and the first
@@ -173,9 +173,10 @@ class LockstepClient:
         if not self.use_sim_time or not self._advertised(self.params.stepped):
             return
         deadline = time.monotonic() + self.params.server_timeout
-        while not self._bridge_connected(subs):
+        while not self._bridge_connected(subs, pubs):
             if time.monotonic() > deadline:
                 self.rospy.logwarn("bomc: not connected to every topic of the sim bridge; ticks may not be exact")
+                self.gave_up.append((now, ["connections to the bridge"]))
                 break
             time.sleep(0.01)
         # What the bridge published before the connections were up is lost to them: ask for
@@ -187,12 +188,14 @@ class LockstepClient:
         name = self.rospy.resolve_name(topic)
         return any(t == name for t, _type in self.rospy.get_published_topics())
 
-    def _bridge_connected(self, subs: list[Any]) -> bool:
+    def _bridge_connected(self, subs: list[Any], pubs: tuple[Any, ...] = ()) -> bool:
+        """Every topic the bridge publishes that this robot reads, the ticks and ``pubs`` (other
+        requests the bridge reads from this robot) connected: a request sent before would be late."""
         with self._arrived:
             stepped = self._stepped is not None
         published = {t for t, _type in self.rospy.get_published_topics()}
         connected = [s for s in subs if s.resolved_name in published]
-        return stepped and self.tick_pub.get_num_connections() > 0 and all(
+        return stepped and all(pub.get_num_connections() > 0 for pub in (self.tick_pub, *pubs)) and all(
             s.get_num_connections() > 0 for s in connected
         )
 

@@ -7,8 +7,9 @@ published, latched, on ``refreshed_map_topic`` (default ``/map``): move_base's s
 takes every new map on its topic, while AMCL keeps the map it asked map_server for (unless
 its ``use_map_topic`` is set). The publisher is made on the first refresh, so a pass that
 never needs one never publishes on map_server's topic. "" turns it off. The sim-over-ROS
-bridge navigates on the map it receives there when it arrives (outside the lockstep's
-counts: a step later, at most).
+bridge navigates on the map it receives there from the tick it was published in: the
+robot counts the maps it published with the other requests it announces with its ticks
+(a new latched publisher connects when the bridge hears of it, many quick ticks later).
 """
 
 from __future__ import annotations

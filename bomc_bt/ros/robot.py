@@ -76,7 +76,7 @@ class RosRobot:
         self.images = ImagePairs(p.sync_slop)  # its passed_over: camera images that never became frames
         self._pending: dict[str, Any] | None = None
         self.pose_gaps = 0  # pose() calls that found no map <- base tf while localized
-        self.counts = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0}
+        self.counts = {"goals": 0, "cancels": 0, "initialposes": 0, "services": 0, "maps": 0}
         self._nav: NavGoal | None = None
         self._reloc: AmclRelocalization | None = None
         self.use_sim_time = bool(rospy.get_param("/use_sim_time", False))
@@ -124,7 +124,8 @@ class RosRobot:
                 raise MissionFailed(f"no move_base action server at {p.move_base_action!r} within "
                                     f"{p.server_timeout:.0f} s (ros.move_base_action)")
             time.sleep(0.02)
-        self.lockstep.wait_for_bridge(self._all_subs(), self.now(), self.counts, self.move_base.awaits_result)
+        self.lockstep.wait_for_bridge(self._all_subs(), self.now(), self.counts, self.move_base.awaits_result,
+                                      pubs=(self.initialpose_pub,))
 
     def _all_subs(self) -> list[Any]:
         truth = self.ground_truth.subs if self.ground_truth is not None else []
@@ -261,7 +262,7 @@ class RosRobot:
     def refresh_map(self, grid: OccupancyGrid) -> None:
         """Navigate on ``grid``: published where move_base reads its map (:mod:`bomc_bt.ros.map_refresh`)."""
         self._grid = grid
-        self.map_refresh.publish(grid)
+        self.counts["maps"] += self.map_refresh.publish(grid)  # the bridge steps once it has it
 
     def scan(self) -> LaserScan | None:
         with self._lock:
