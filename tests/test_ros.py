@@ -413,7 +413,7 @@ class _Transport:
         self.robot = runner.robot
 
     def losses(self) -> list[str]:
-        images = [f"camera image of {p.stamp:.2f} s: {p.why}" for p in self.robot.images.passed_over]
+        images = [f"camera image of {p.stamp:.2f} s: {p.why}" for p in self.robot.images.last_passed_over]
         waits = [f"tick to {t:.2f} s: {', '.join(m)} never came" for t, m in self.robot.lockstep.gave_up]
         return images + waits
 

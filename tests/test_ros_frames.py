@@ -91,7 +91,8 @@ def test_a_frame_whose_instance_image_was_lost_is_skipped_for_the_next_one():
     assert len(got) == 1 and got[0].stamp == pytest.approx(2.2)
     assert got[0].instance_categories == {7: "chair"}
     assert any("2.00 s was lost" in w for w in camera.warnings)
-    assert camera.robot.images.passed_over == [PassedOver(2.0, "ground truth lost")]  # what the ROS tests read
+    assert camera.robot.images.passed_over == {"ground truth lost": 1}  # what the ROS tests read
+    assert list(camera.robot.images.last_passed_over) == [PassedOver(2.0, "ground truth lost")]
 
 
 def test_a_newer_pair_passes_the_older_images_over_and_says_so():
@@ -102,7 +103,8 @@ def test_a_newer_pair_passes_the_older_images_over_and_says_so():
         camera.truth(t)
     frame = camera.robot.frame()
     assert frame is not None and frame.stamp == pytest.approx(2.0)
-    assert camera.robot.images.passed_over == [PassedOver(1.0, "newer pair"), PassedOver(1.5, "newer pair")]
+    assert camera.robot.images.passed_over == {"newer pair": 2}
+    assert list(camera.robot.images.last_passed_over) == [PassedOver(1.0, "newer pair"), PassedOver(1.5, "newer pair")]
     assert camera.robot.frame() is None  # nothing newer yet: no frame twice
 
 

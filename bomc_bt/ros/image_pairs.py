@@ -2,22 +2,24 @@
 
 The robot's camera publishes an RGB and a depth image per frame on two topics; a frame is
 the newest pair whose stamps are within ``sync_slop``. A pair newer than the one being taken
-passes the older ones over, and a frame whose simulator ground truth was lost is dropped:
-both are counted in :attr:`ImagePairs.passed_over` (stamp and why), so a pass that saw fewer
-frames than the camera published can say which and why (in lockstep with the sim bridge no
-image should ever be passed over; the ROS tests read this list).
+passes the older ones over (a camera faster than the tree's ticks), and a frame whose
+simulator ground truth was lost is dropped: both are counted by why in
+:attr:`ImagePairs.passed_over`, the latest with their stamps in :attr:`ImagePairs.last_passed_over`,
+so a pass that saw fewer frames than the camera published can say which and why (in lockstep
+with the sim bridge no image should ever be passed over; the ROS tests read the counts).
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
+from collections import Counter, deque
 from dataclasses import dataclass, field
 from typing import Any
 
 from bomc_bt.errors import MissionFailed
 
 KEEP = 30  # images kept per topic while waiting for their partner (a frame rate's worth of seconds)
+LAST = 20  # passed-over images kept with their stamps (the counts cover all of them)
 
 
 @dataclass
@@ -37,7 +39,8 @@ class ImagePairs:
     depth: deque = field(default_factory=lambda: deque(maxlen=KEEP))
     last_stamp: float = -math.inf  # the stamp of the last pair taken
     seen_at: dict[str, float] = field(default_factory=dict)  # "rgb" / "depth" -> when the first came
-    passed_over: list[PassedOver] = field(default_factory=list)
+    passed_over: Counter = field(default_factory=Counter)  # why -> how many images
+    last_passed_over: deque = field(default_factory=lambda: deque(maxlen=LAST))  # the latest, as PassedOver
 
     def add(self, kind: str, msg: Any, now: float) -> None:
         """An image of ``kind`` ("rgb" or "depth") received at ROS time ``now``."""
@@ -53,14 +56,16 @@ class ImagePairs:
             best = min(self.rgb, key=lambda m: abs(image_stamp(m) - ds), default=None)
             if best is not None and abs(image_stamp(best) - ds) <= self.sync_slop:
                 skipped = sorted({image_stamp(m) for m in self.depth if self.last_stamp < image_stamp(m) < ds})
-                self.passed_over += [PassedOver(s, "newer pair") for s in skipped]
+                for stamp in skipped:
+                    self.drop(stamp, "newer pair")
                 self.last_stamp = ds
                 return {"stamp": ds, "rgb": best, "depth": depth, "received": now}
         return None
 
     def drop(self, stamp: float, why: str) -> None:
-        """A pair taken by :meth:`newest` that will not become a frame."""
-        self.passed_over.append(PassedOver(stamp, why))
+        """An image that will not become a frame (a pair taken by :meth:`newest`, or one it passed over)."""
+        self.passed_over[why] += 1
+        self.last_passed_over.append(PassedOver(stamp, why))
 
     def check_unpaired(self, now: float, timeout: float, rgb_topic: str, depth_topic: str) -> None:
         """Images on one topic but never a partner on the other within ``timeout`` s: a misnamed topic."""
