@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import pytest
+from py_trees.common import Status
 from site_files import bomc_command, bomc_env, error_line
 
 from bomc_bt import run
@@ -105,6 +106,43 @@ def test_a_pass_killed_in_process_resumes_where_it_was_with_the_same_f1(office, 
     with SiteStore(site, readonly=True) as store:
         session = store.sessions()[1]
     assert session.ended and session.outcome == "completed"
+
+
+def _looking_around(runner) -> bool:
+    return any(n.name == "Look Around" and n.status == Status.RUNNING for n in runner.root.iterate())
+
+
+def test_a_pass_killed_while_looking_around_looks_around_there_again(office):
+    """A stop's waypoint is marked visited once its Look Around is done: a pass killed in the
+    middle of one goes back to that stop after the resume and looks around there again,
+    rather than going on to the next waypoint with the stop half looked at."""
+    killed: dict = {}
+
+    def kill_mid_look(ctx):
+        def hook(runner) -> None:
+            killed["ticks"] = killed.get("ticks", 0) + 1 if _looking_around(runner) else 0
+            if killed["ticks"] >= 5 and ctx.robot.now() > 0.2 * office["sim_time"]:  # a few ticks into a look
+                killed["waypoint"], killed["at"] = ctx.traverse.current, ctx.robot.pose()
+                raise Killed
+        return hook
+
+    resumed: dict = {}
+
+    def first_look(ctx):
+        def hook(runner) -> None:
+            if "waypoint" not in resumed and _looking_around(runner):
+                resumed["waypoint"], resumed["at"] = ctx.traverse.current, ctx.robot.pose()
+        return hook
+
+    site = shutil.copytree(office["base"], office["root"] / "killed-looking")
+    with pytest.raises(Killed):
+        run.run_monitor(office["world"], site, 2, seed=2, config=office["config"], context_hooks=[kill_mid_look])
+    result = run.run_monitor(office["world"], site, 2, seed=2, config=office["config"], resume=True,
+                             context_hooks=[first_look])
+    assert result.succeeded and result.context.restored
+    assert resumed["waypoint"] == killed["waypoint"]  # the same stop, not the next one
+    assert resumed["at"].distance_to(killed["at"]) < 0.3
+    assert evaluate_session(office["world"], site, 2, office["config"]).overall.f1 >= office["f1"] - 0.02
 
 
 def test_a_resume_with_another_seed_is_refused(office):
