@@ -340,12 +340,22 @@ def _monitor_ros(env: dict, site: Path, *bridge_args: str, hooks=()):
         bridge.stop()
 
 
-def _build_ros(env: dict, site: Path):
-    bridge = Bridge(env, "--mode", "build")
-    try:
-        return run_build_ros(site, _config())
-    finally:
-        bridge.stop()
+def _lossless_build(env: dict, site: Path, tries: int = 3):
+    """A ROS build at ``site`` that lost no message: (site, result); a build that lost one is
+    run again at ``site-N`` (see :func:`_lossless_pass`), up to ``tries`` times."""
+    losses = []
+    for attempt in range(tries):
+        where = site if attempt == 0 else site.with_name(f"{site.name}-{attempt}")
+        transport = _Transport()
+        bridge = Bridge(env, "--mode", "build")
+        try:
+            result = run_build_ros(where, _config(), hooks=[transport])
+        finally:
+            bridge.stop()
+        if not transport.losses():
+            return where, result
+        losses.append(transport.losses())
+    pytest.fail(f"every one of {tries} builds lost messages: {losses}")
 
 
 def _cells_differ(a: Path, b: Path) -> int:
@@ -364,15 +374,10 @@ def lab_b(roscore, tmp_path_factory):
     root = tmp_path_factory.mktemp("lab-b")
     run_build(WORLD, root / "direct")
     run_monitor(WORLD, root / "direct", 1, config=_config())
-    return SimpleNamespace(
-        root=root,
-        direct=root / "direct",
-        ros=root / "ros",
-        again=root / "ros-again",
-        ros_build=_build_ros(roscore, root / "ros"),
-        again_build=_build_ros(roscore, root / "ros-again"),
-        direct_f1=_f1(root / "direct"),
-    )
+    ros, ros_build = _lossless_build(roscore, root / "ros")
+    again, again_build = _lossless_build(roscore, root / "ros-again")
+    return SimpleNamespace(root=root, direct=root / "direct", ros=ros, again=again, ros_build=ros_build,
+                           again_build=again_build, direct_f1=_f1(root / "direct"))
 
 
 def test_build_and_monitor_through_ros_match_the_direct_simulator(roscore, lab_b):
@@ -413,6 +418,8 @@ class _Transport:
         self.robot = runner.robot
 
     def losses(self) -> list[str]:
+        if self.robot is None:  # not a tick ran
+            return []
         images = [f"camera image of {p.stamp:.2f} s: {p.why}" for p in self.robot.images.last_passed_over]
         waits = [f"tick to {t:.2f} s: {', '.join(m)} never came" for t, m in self.robot.lockstep.gave_up]
         return images + waits
