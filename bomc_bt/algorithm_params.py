@@ -9,7 +9,7 @@ a configuration needs only this module. Each field's comment gives its unit and 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 _REFERENCE_WIDTH = 640  # stride and min_points are given for a 640 x 480 image
@@ -348,8 +348,17 @@ class ProjectionParams:
     # cut that go on from the kept ones without a jump in range (a table seen end-on; see
     # bomc_bt.perception.far_part); the floor box stays the cut's; false: the range cut alone
     far_part: bool = True
+    # [-] a view whose box is clear of the image border, whose own surface is flat and upright,
+    # and with at least this share of the depth pixels round its box on that surface's plane
+    # (within 5 cm) is a patch of a wall, not an object standing out from it: a false box on a
+    # wall (bomc_bt.perception.surface_patch). Above 1 (e.g. 1.1): off
+    patch_share: float = 0.9
+    # [list] categories that stand flush in a wall, never judged patches of it
+    flush_categories: list[str] = field(default_factory=lambda: ["door"])
 
     def __post_init__(self) -> None:
+        if not 0.0 < self.patch_share <= 2.0:
+            raise ValueError("patch_share must be in (0, 2] (above 1: off)")
         if self.min_points < 1 or self.stride < 1:
             raise ValueError("min_points and stride must be >= 1")
         if not self.max_depth > 0.0:

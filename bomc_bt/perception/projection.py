@@ -14,7 +14,7 @@ Numpy (and OpenCV for a mask's bounding box); nothing here knows which detector 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import cv2
 import numpy as np
@@ -25,6 +25,7 @@ from bomc_bt.graph import Observation
 from bomc_bt.perception.colour import surface_colour
 from bomc_bt.perception.far_part import far_part
 from bomc_bt.perception.frames import Detection
+from bomc_bt.perception.surface_patch import is_surface_patch
 from bomc_bt.robot import RGBDFrame
 
 _BIN = 0.05  # m, range histogram bin of the robust centroid
@@ -46,10 +47,11 @@ class ProjectionStats:
     few_points: int = 0  # fewer than min_points valid points
     on_floor: int = 0  # enough valid points, but fewer than min_points above the floor
     too_far: int = 0  # most of the mask's depth lies beyond the range used: a far object's
+    on_wall: int = 0  # a patch of a wall, flush with what is round it (surface_patch.py)
 
     def add(self, other: ProjectionStats) -> None:
-        for name in ("detections", "observations", "no_mask", "no_depth", "few_points", "on_floor", "too_far"):
-            setattr(self, name, getattr(self, name) + getattr(other, name))
+        for f in fields(self):
+            setattr(self, f.name, getattr(self, f.name) + getattr(other, f.name))
 
 
 # -- back-projection -----------------------------------------------------------------------
@@ -260,6 +262,11 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         if params.floor_height > 0.0 and standing < _STANDING_SHARE * len(kept):
             stats.on_floor += 1
             continue
+        surface = kept[kept @ T[2, :3] + T[2, 3] >= params.floor_height]  # its own, not the floor it stands on
+        if det.category not in params.flush_categories and is_surface_patch(
+                frame.depth, _mask_bounds(det.mask), frame.K, T, depth_range, surface, params.patch_share, stride):
+            stats.on_wall += 1  # a false box on a wall (surface_patch.py)
+            continue
         whole = kept
         if params.far_part and not isinstance(keep, slice):  # the cut dropped points: some may be its far part
             d, m, r0, c0 = _on_lattice(frame.depth, det.mask, stride)
@@ -280,7 +287,6 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         distance = float(np.median(kept[:, 2]))
         box = np.concatenate([lo, hi]) if distance <= params.box_range else None
         _, top, _, _ = _mask_bounds(det.mask)
-        surface = kept[points[:, 2] >= params.floor_height]  # its own surface, not the floor it stands on
         out.append(Observation(det.category, centre, float(det.score), len(cam), horizontal_extent(points, centre),
                                box=box, truncated=truncated(frame.depth, det.mask, distance),
                                above_image=top == 0, colour=surface_colour(frame.rgb, surface, frame.K)))
