@@ -5,9 +5,9 @@ simulated ``realistic`` detector and segmenter with its false-positive rate rais
 there are enough false boxes to count; the boxes themselves are the preset's: a random
 patch of background, any category), and projects every detection one at a time, as a pass
 does, with ``projection.patch_share`` at its configured value and off. It prints, for views
-of true objects (doors apart: they are exempt) and for false boxes, how many gave an
-observation with the test off and how many of those the test drops
-(:mod:`bomc_bt.perception.surface_patch`):
+of true objects (those of ``projection.flush_categories`` apart: exempt) and for false
+boxes, how many gave an observation with the test off and how many of those the test
+drops (:mod:`bomc_bt.perception.surface_patch`):
 
     python benchmarks/bench_wall_patches.py --size 93x90 --seed 9652 --frames 5000
 """
@@ -61,7 +61,8 @@ def judged(world: Path, frames: int, seed: int, fp_rate: float) -> Counter:
                                     pose, pose, 1000.0 + done)
         for det in detector.segment(frame, detector.detect(frame, categories)):
             source = detector.source(frame, det)
-            group = "false box" if source == 0 else ("door (exempt)" if det.category == "door" else "true object")
+            flush = det.category in on.flush_categories
+            group = "false box" if source == 0 else ("flush (exempt)" if flush else "true object")
             if not detections_to_observations(frame, [det], off):
                 continue
             out[group, "kept off"] += 1
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         counts = judged(world, args.frames, args.seed, args.fp_rate)
     print(f"# office {args.size} seed {args.seed}, {args.frames} frames, false boxes at {args.fp_rate} a frame")
     print(f"{'views':<16} {'observations':>12} {'wall patches':>12} {'share':>7}")
-    for group in ("true object", "door (exempt)", "false box"):
+    for group in ("true object", "flush (exempt)", "false box"):
         kept, dropped = counts[group, "kept off"], counts[group, "dropped"]
         print(f"{group:<16} {kept:>12} {dropped:>12} {dropped / kept if kept else 0.0:>7.3f}")
     return 0

@@ -353,8 +353,9 @@ class ProjectionParams:
     # (within 5 cm) is a patch of a wall, not an object standing out from it: a false box on a
     # wall (bomc_bt.perception.surface_patch). Above 1 (e.g. 1.1): off
     patch_share: float = 0.9
-    # [list] categories that stand flush in a wall, never judged patches of it
-    flush_categories: list[str] = field(default_factory=lambda: ["door"])
+    # [list] categories that stand flush in a wall or hang flat on one, never judged patches of
+    # it: add any such category the detector is prompted for (a window, a whiteboard, a picture)
+    flush_categories: list[str] = field(default_factory=lambda: ["door", "television"])
 
     def __post_init__(self) -> None:
         if not 0.0 < self.patch_share <= 2.0:

@@ -56,11 +56,13 @@ def test_a_false_box_on_a_wall_is_dropped_and_counted():
 
 
 def test_a_door_in_the_wall_and_a_cabinet_against_it_are_kept():
-    """A door leaf is flush with its wall (``flush_categories``); a cabinet stands out from
+    """A door leaf is flush with its wall, a screen flat on it (``flush_categories``); a cabinet stands out from
     the wall behind it and the floor in front, so its ring is off its face's plane."""
     frame, cabinet = wall_scene()
     door = Detection("door", (0, 0, 1, 1), 0.8, mask=wall_box(frame, -0.9, -0.4))
     assert len(detections_to_observations(frame, [door], ProjectionParams())) == 1
+    screen = replace(door, category="television")  # a flat screen hangs a few cm off its wall
+    assert len(detections_to_observations(frame, [screen], ProjectionParams())) == 1
     det = SimDetector(SimDetectorParams(preset="perfect"))
     views = det.segment(frame, det.detect(frame, ["cabinet"]))
     stats = ProjectionStats()

@@ -14,7 +14,8 @@ camera sees the wall behind it, the floor in front, or something nearer. A patch
 is flat, and the wall goes on around it at the same depth. So a view is a patch when its
 own surface (the points the projection kept) is flat, and nearly all of the depth pixels
 in a ring round its mask's box lie on that surface's plane. A door in its wall is flush
-with it, so categories that stand in a wall are exempt (``projection.flush_categories``).
+with it and a flat screen hangs a few centimetres off one, so such categories are exempt
+(``projection.flush_categories``).
 
 Only geometry of the one frame: no map, so a wall built after the build map is judged the
 same, and so is a cabinet that stood in the build.
