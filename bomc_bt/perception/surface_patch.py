@@ -23,9 +23,12 @@ same, and so is a cabinet that stood in the build.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _MAX_POINTS = 400  # surface points the plane is fitted to (an even subsample of more)
+_MAX_RING = 1000  # ring pixels sampled at most (about)
 RING_WIDTH = 0.25  # [-] the ring round a box, as a share of the box's width (height) on each side
 
 
@@ -43,12 +46,14 @@ def ring_points(depth: np.ndarray, bounds: tuple[int, int, int, int], K: np.ndar
                 width: float, stride: int) -> np.ndarray:
     """(M, 3) camera-frame points of the valid depth pixels in a band round the box ``bounds``
     (x, y, w, h), ``width`` of the box's size wide on each side (at least 2 pixels), inside
-    the image, sampled every ``stride`` pixels."""
+    the image, sampled every ``stride`` pixels or sparser: about ``_MAX_RING`` pixels at most
+    (a share needs no more, and a near object's ring has tens of thousands)."""
     x, y, w, h = bounds
     rows, cols = depth.shape
     dx, dy = max(2, round(width * w)), max(2, round(width * h))
     r0, r1, c0, c1 = max(0, y - dy), min(rows, y + h + dy), max(0, x - dx), min(cols, x + w + dx)
-    v, u = np.mgrid[r0:r1:stride, c0:c1:stride]
+    step = max(stride, math.ceil(math.sqrt(max((r1 - r0) * (c1 - c0) - w * h, 1) / _MAX_RING)))
+    v, u = np.mgrid[r0:r1:step, c0:c1:step]
     outside = (u < x) | (u >= x + w) | (v < y) | (v >= y + h)
     v, u = v[outside], u[outside]
     z = depth[v, u].astype(float)
