@@ -150,7 +150,8 @@ class SimBridge:
         return self._srv_empty()
 
     def _apply_nomotion(self, _item: Any) -> None:
-        pass
+        """Nothing to apply: the simulator's localization updates without motion by itself. The call
+        is queued and counted only so that the tick it was made in waits for it, as for the others."""
 
     def _apply_clear_costmaps(self, _item: Any) -> None:
         self.sim.clear_costmaps()
