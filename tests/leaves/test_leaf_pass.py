@@ -491,12 +491,16 @@ def test_the_shipped_last_looks_reach_a_bin_that_moved_while_the_refresh_tour_dr
     shipped = shipped_params("PlanLastLooks")
     params = RefreshParams(stale_after=600.0, **shipped)
     assert tick(PlanRefreshStops("Refresh", params, ctx)) == Status.SUCCESS and state.phase_count(REFRESH) == 0
-    for dt in (10.0, 4.5):  # on the way: a bin 2.9 m from the old one, added on two frames
+    events = []
+    for dt in (10.0, 4.5, 1.0, 1.0):  # on the way: a bin 2.9 m from the old one, added and seen again
         robot.advance(dt)
-        ctx.graph.associate([Observation("trash bin", np.array([20.5, 22.9, 0.3]), 0.9)], [], 2, ctx.now())
-    assert len(ctx.graph.nodes) == 2
+        events += ctx.graph.associate([Observation("trash bin", np.array([20.5, 22.9, 0.3]), 0.9)], [], 2, ctx.now())
+    ctx.perception = SimpleNamespace(events=events)
+    assert [e.kind for e in events if e.kind != "updated"] == ["added"] and ctx.graph.nodes[1].observations > 1
     leaf = PlanLastLooks("Last", params, ctx)
     assert tick(leaf) == Status.SUCCESS and state.phase_count(LAST_LOOKS) >= 1, leaf.feedback_message
+    assert leaf.feedback_message.endswith("for 1 nodes new since the refresh plan")  # the old bin's node
     looks = [state.waypoint(i) for i in range(state.phases[LAST_LOOKS], len(state.states))]
-    assert any(math.hypot(p.x - 20.0, p.y - 20.0) <= params.view_range for p in looks)
-    assert math.hypot(20.0 - 2.0, 20.0 - 2.0) > 0.05 * 300.0  # the old budget could not reach it
+    # a look at the old place from where a miss weighs in full, facing it
+    assert any(math.hypot(p.x - 20.0, p.y - 20.0) <= params.look_range + 1e-6
+               and abs(math.atan2(20.0 - p.y, 20.0 - p.x) - p.yaw) < math.radians(25.0) for p in looks)
