@@ -103,9 +103,15 @@ class Copy(Leaf):
         return Status.SUCCESS
 
 
+class Tally(Counter):
+    """Counter that declares ``count`` as read too (as FindDetour does ``detours_tried``)."""
+
+    reads = ("count",)
+
+
 def make_registry() -> Registry:
     registry = Registry()
-    for cls in (Counter, FailTimes, WaitUntil, Copy):
+    for cls in (Counter, FailTimes, WaitUntil, Copy, Tally):
         registry.add(cls.__name__, cls)
     return registry
 
@@ -432,6 +438,22 @@ def test_error_in_included_file_names_that_file_and_subtree_path(tmp_path):
 def test_unreferenced_subtree_is_still_checked(tmp_path):
     error = error_for(tmp_path, "root: {behaviour: Counter}\nsubtrees: {spare: {behaviour: Nope}}\n")
     assert ": subtrees.spare: unknown behaviour 'Nope'" in error
+
+
+def test_an_unused_subtree_with_a_key_read_and_written_is_checked_and_the_tree_loads(tmp_path):
+    """Checking an unreferenced subtree builds it and unregisters its leaves' keys; py_trees'
+    own unregister fails on a key a leaf both reads and writes. A user's tree that included
+    traverse.yaml for its refresh subtree alone stopped with that KeyError's traceback."""
+    write(tmp_path, "lib.yaml", """\
+        version: 1
+        subtrees:
+          tally: {behaviour: Tally, ports: {reads: [count], writes: [count]}}
+          count: {behaviour: Counter, params: {step: 2}}
+    """)
+    root = load(write(tmp_path, "main.yaml", "version: 1\ninclude: [lib.yaml]\nroot: {subtree: count}\n"))
+    root.tick_once()
+    assert root.status == Status.SUCCESS and board("/count") == 2
+    assert not any("Tally" in name for name in py_trees.blackboard.Blackboard.clients.values())  # checked, let go
 
 
 def test_subtree_cycles(tmp_path):

@@ -258,11 +258,11 @@ def detections_to_observations(frame: RGBDFrame, detections: list[Detection],
         # seed 7752: a chair and a sofa, kept over three passes). Of 7,300 views of true
         # objects measured, two had less than half of it above the floor, the rest 0.56 or more.
         # floor_height 0 turns it off: the floor's own points scatter about 0 with depth noise.
-        standing = np.count_nonzero(kept @ T[2, :3] + T[2, 3] >= params.floor_height)
-        if params.floor_height > 0.0 and standing < _STANDING_SHARE * len(kept):
+        above = kept @ T[2, :3] + T[2, 3] >= params.floor_height
+        if params.floor_height > 0.0 and np.count_nonzero(above) < _STANDING_SHARE * len(kept):
             stats.on_floor += 1
             continue
-        surface = kept[kept @ T[2, :3] + T[2, 3] >= params.floor_height]  # its own, not the floor it stands on
+        surface = kept[above]  # its own surface, not the floor it stands on
         if det.category not in params.flush_categories and is_surface_patch(
                 frame.depth, _mask_bounds(det.mask), frame.K, T, depth_range, surface, params.patch_share, stride):
             stats.on_wall += 1  # a false box on a wall (surface_patch.py)

@@ -165,7 +165,7 @@ class _Builder:
             node = self.node(definition.spec, definition.file, definition.where, depth=1)
             for behaviour in node.iterate():
                 for client in behaviour.blackboards:
-                    client.unregister(clear=False)
+                    _unregister(client)
         self.active = []
 
     # ----------------------------------------------------------------- nodes
@@ -365,3 +365,17 @@ class _Builder:
             frame.used.add(key)
             key = frame.remap.get(key, key)
         return blackboard_key(key)
+
+
+def _unregister(client: py_trees.blackboard.Client) -> None:
+    """Unregister ``client``, each of its keys once, leaving the stored values.
+
+    ``Client.unregister`` walks its read, write and exclusive keys one set after the other and
+    fails with a KeyError on a key in two of them (FindDetour reads and writes
+    ``detours_tried``): the first pass already dropped it. A user's tree that includes
+    traverse.yaml without using its ``traverse`` subtree stopped with that traceback.
+    """
+    for key in set(client.read) | set(client.write) | set(client.exclusive):
+        client.unregister_key(key, clear=False, update_namespace_cache=False)
+    del py_trees.blackboard.Blackboard.clients[client.unique_identifier]
+

@@ -445,31 +445,22 @@ def test_a_stop_reached_on_its_second_chance_faces_its_other_headings_too(ctx):
     assert tick(next_) == Status.SUCCESS and state.current == 1  # then its other heading
 
 
-def shipped_params(leaf: str) -> dict:
-    """The ``params`` the shipped trees give ``leaf`` (trees/traverse.yaml)."""
-    import yaml
-
+def shipped_leaf(ctx, tmp_path, kind: type):
+    """The one ``kind`` leaf of the shipped Refresh Stale subtree (trees/traverse.yaml), built
+    by the tree loader as a mission builds it: its params are the shipped ones."""
     from bomc_bt.config import resource_dir
+    from bomc_bt.tree.loader import load_tree
+    from bomc_bt.tree.registry import load_registry
 
-    spec = yaml.safe_load((resource_dir("trees") / "traverse.yaml").read_text())
-    found = []
-
-    def walk(node):
-        if isinstance(node, dict):
-            if node.get("behaviour") == leaf:
-                found.append(node.get("params") or {})
-            for value in node.values():
-                walk(value)
-        elif isinstance(node, list):
-            for value in node:
-                walk(value)
-
-    walk(spec)
-    assert len(found) == 1, f"{leaf} appears {len(found)} times"
-    return found[0]
+    path = tmp_path / "refresh_stale.yaml"
+    path.write_text("version: 1\ninclude: [traverse.yaml]\nroot: {subtree: refresh_stale}\n")
+    root = load_tree(path, load_registry(), ctx, clock=ctx.now, extra_search_paths=[resource_dir("trees")])
+    [leaf] = [b for b in root.iterate() if type(b) is kind]
+    return leaf
 
 
-def test_the_shipped_last_looks_reach_a_bin_that_moved_while_the_refresh_tour_drove_across_the_floor(ctx, robot):
+def test_the_shipped_last_looks_reach_a_bin_that_moved_while_the_refresh_tour_drove_across_the_floor(ctx, robot,
+                                                                                                    tmp_path):
     """36 x 28 m office, seed 9721, pass 8: a bin the pass had seen was moved 2.9 m during it;
     the refresh tour, planned before, saw it at its new place (an addition) and ended 22 m
     away. Its old node may have moved there, and only a look at its old place tells a move
@@ -488,8 +479,8 @@ def test_the_shipped_last_looks_reach_a_bin_that_moved_while_the_refresh_tour_dr
                             [Node(0, "trash bin", np.array([20.0, 20.0, 0.3]), 0.9, 1, 1)])
     ctx.graph.associate([Observation("trash bin", np.array([20.0, 20.0, 0.3]), 0.9)], [0], 2, ctx.now())
     robot.advance(100.0)
-    shipped = shipped_params("PlanLastLooks")
-    params = RefreshParams(stale_after=600.0, **shipped)
+    leaf = shipped_leaf(ctx, tmp_path, PlanLastLooks)
+    params = leaf.params
     assert tick(PlanRefreshStops("Refresh", params, ctx)) == Status.SUCCESS and state.phase_count(REFRESH) == 0
     events = []
     for dt in (10.0, 4.5, 1.0, 1.0):  # on the way: a bin 2.9 m from the old one, added and seen again
@@ -497,7 +488,6 @@ def test_the_shipped_last_looks_reach_a_bin_that_moved_while_the_refresh_tour_dr
         events += ctx.graph.associate([Observation("trash bin", np.array([20.5, 22.9, 0.3]), 0.9)], [], 2, ctx.now())
     ctx.perception = SimpleNamespace(events=events)
     assert [e.kind for e in events if e.kind != "updated"] == ["added"] and ctx.graph.nodes[1].observations > 1
-    leaf = PlanLastLooks("Last", params, ctx)
     assert tick(leaf) == Status.SUCCESS and state.phase_count(LAST_LOOKS) >= 1, leaf.feedback_message
     assert leaf.feedback_message.endswith("for 1 nodes new since the refresh plan")  # the old bin's node
     looks = [state.waypoint(i) for i in range(state.phases[LAST_LOOKS], len(state.states))]
