@@ -22,10 +22,11 @@ import numpy as np
 from bomc_bt.first_seen import gone_before
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.graph.robust import RobustPolicy
+from bomc_bt.graph.view_sides import carried_counts
 from bomc_bt.graph.walls import Walls
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
-from bomc_bt.pass_resume import earlier_co_observed, frame_progress
+from bomc_bt.pass_resume import earlier_co_observed, earlier_sides, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.looked import looked_polygon
@@ -343,6 +344,9 @@ seen before it is written. With a store, every frame
             self.graph.sighted_before = self.seen_before.sighted_here
         if self.store is not None:  # two objects an earlier pass saw side by side stay two
             self.graph.keep_apart(self.session, earlier_co_observed(self.store, self.session))
+            sides = self.graph.evidence.sides  # where a present object was missed from before (graph.view_sides)
+            if sides is not None:
+                sides.carry(carried_counts(earlier_sides(self.store, self.session), sides.sides), set(self.graph.nodes))
             if isinstance(getattr(self.graph, "policy", None), RobustPolicy):  # one back is no other's new place
                 self.graph.policy.gone = gone_before(self.store, self.session)
 

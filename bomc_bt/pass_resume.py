@@ -106,6 +106,17 @@ def earlier_co_observed(store, session: int) -> list[tuple[int, int]]:
     return []
 
 
+def earlier_sides(store, session: int) -> dict | None:
+    """The per-side detection counts (:mod:`bomc_bt.graph.view_sides`) the latest earlier pass
+    with a resume point ended with; None where it saved none (before the first pass, or a pass
+    run without them)."""
+    for earlier in sorted((s.number for s in store.sessions() if s.number < session), reverse=True):
+        point = load_resume_point(store, earlier)
+        if isinstance(point, dict):
+            return (point.get("graph") or {}).get("sides")
+    return None
+
+
 def restore_pass(store, session: int, robot, perception) -> bool:
     """Put a killed pass's saved state back into ``robot`` and ``perception`` (and its
     graph); False when nothing was saved (the pass was killed before its first commit)."""

@@ -2,7 +2,8 @@
 
 Per node, in this process only (a new pass starts from the prior): how many frames that
 expected the node saw it, how much miss weight piled up before the current run of misses,
-and the weight of that run. A miss weighs 1 when the frame had a clear, near view of the
+and the weight of that run; per viewing side, carried over passes, the same counts
+(:mod:`bomc_bt.graph.view_sides`). A miss weighs 1 when the frame had a clear, near view of the
 node and less farther away (see :func:`bomc_bt.perception.expected.miss_weights`); a
 detection ends the run and adds it to the node's record of misses. Robust association
 (:func:`misses_needed`) compares the run with what the
@@ -14,6 +15,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+
+from bomc_bt.graph.view_sides import SideRates
 
 
 @dataclass
@@ -29,19 +32,27 @@ class DetectionRecord:
 class MissEvidence:
     """Detection records of the graph's nodes."""
 
-    def __init__(self) -> None:
+    def __init__(self, sides: SideRates | None = None) -> None:
         self._records: dict[int, DetectionRecord] = {}
+        self.sides = sides  # per viewing side, carried over passes (None: one rate per node)
 
-    def seen(self, node_id: int, stamp: float, interval: float) -> None:
-        """An expected frame detected the node: count it (once per ``interval``), end the run."""
+    def seen(self, node_id: int, stamp: float, interval: float, side: int | None = None) -> None:
+        """An expected frame (from ``side``, when known) detected the node: count it (once per
+        ``interval``), end the run."""
         r = self._records.setdefault(node_id, DetectionRecord())
-        self._end_run(r)
+        self._end_run(node_id, r, refuted=True)
         if stamp - r.last_seen >= interval:
             r.seen += 1.0
             r.last_seen = stamp
+            if self.sides is not None and side is not None:
+                self.sides.seen(node_id, side)
 
-    def missed(self, node_id: int, weight: float, place: Sequence[float] | None = None) -> float:
-        """A counted miss of ``weight``, seen with the robot at ``place`` (x, y); returns the run's weight."""
+    def missed(self, node_id: int, weight: float, place: Sequence[float] | None = None,
+               side: int | None = None) -> float:
+        """A counted miss of ``weight``, seen with the robot at ``place`` (x, y; from ``side``,
+        when known); returns the run's weight."""
+        if self.sides is not None and side is not None:
+            self.sides.missed(node_id, side, weight)
         r = self._records.setdefault(node_id, DetectionRecord())
         if place is None:
             r.run_spread = math.inf
@@ -67,14 +78,15 @@ class MissEvidence:
         r = self._records.get(node_id)
         return 0.0 if r is None else r.run
 
-    def forget(self, node_id: int) -> None:
-        """The node left the graph: its run is over."""
+    def forget(self, node_id: int, refuted: bool = False) -> None:
+        """The node's run is over: a detection ``refuted`` it, or the node left the graph."""
         r = self._records.get(node_id)
         if r is not None:
-            self._end_run(r)
+            self._end_run(node_id, r, refuted)
 
-    @staticmethod
-    def _end_run(r: DetectionRecord) -> None:
+    def _end_run(self, node_id: int, r: DetectionRecord, refuted: bool) -> None:
+        if self.sides is not None:
+            self.sides.end_run(node_id, refuted)
         r.missed += r.run
         r.run = 0.0
         r.run_from, r.run_spread = None, 0.0
@@ -84,6 +96,14 @@ class MissEvidence:
         ``weight`` frames' worth of ``prior``: the rate a present object would show."""
         r = self._records.get(node_id, DetectionRecord())
         return (r.seen + prior * weight) / (r.seen + r.missed + weight)
+
+    def run_rate(self, node_id: int, prior: float, weight: float) -> float:
+        """The rate the node's current run is judged by: :meth:`detection_rate`, or the lowest
+        rate of the sides the run was seen from when that is lower."""
+        rate = self.detection_rate(node_id, prior, weight)
+        if self.sides is None:
+            return rate
+        return min(rate, self.sides.rate(node_id, self.sides.run_sides(node_id), prior, weight))
 
 
 def misses_needed(rate: float, prior: float, confirm_misses: int, max_misses: int) -> int:

@@ -29,6 +29,7 @@ from bomc_bt.graph.refinement import ends_of_one, refinements
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.spatial import SpatialIndex
 from bomc_bt.graph.tentative import Sighting
+from bomc_bt.graph.view_sides import SideRates
 from bomc_bt.json_text import JSONMemo, keyed
 
 
@@ -55,7 +56,9 @@ class ObjectGraph:
         self._session: int | None = None
         self._changed: dict[int, Node] = {}
         self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
-        self.evidence = MissEvidence()  # robust: what the frames that expected each node showed
+        # robust: what the frames that expected each node showed, per viewing side (graph.view_sides)
+        sides = params.miss_sides if params.mode == "robust" else 0
+        self.evidence = MissEvidence(SideRates(sides, params.side_memory) if sides else None)
         # position -> whether no earlier pass looked there (bomc_bt.first_seen): an object found
         # there beyond a node's gate was most likely always there, so the robust policy takes
         # it for no removed object's new place. None: nothing known.
@@ -246,6 +249,7 @@ class ObjectGraph:
             "tentative": None if tentative is None else tentative.to_json(memo),
             "extents": None if extents is None else extents.to_json(memo),
             "co_observed": None if co_observed is None else co_observed.to_json(),
+            "sides": None if self.evidence.sides is None else self.evidence.sides.to_json(memo),
             "started": keyed(memo, "started", self.started.items(),
                              lambda s: [None if s[0] is None else s[0].tolist(), s[1].tolist()]),
         }
@@ -270,15 +274,10 @@ class ObjectGraph:
                         for k, (fp, p) in state.get("started", {}).items()}
         for key, gate in state.get("gates", {}).items():
             self.index.widen_gate(int(key), float(gate))
-        tentative = getattr(self.policy, "tentative", None)
-        if tentative is not None and state.get("tentative") is not None:
-            tentative.restore(state["tentative"])
-        extents = getattr(self.policy, "extents", None)
-        if extents is not None and state.get("extents") is not None:
-            extents.restore(state["extents"])
-        co_observed = getattr(self.policy, "co_observed", None)
-        if co_observed is not None and state.get("co_observed") is not None:
-            co_observed.restore(state["co_observed"])
+        parts = {key: getattr(self.policy, key, None) for key in ("tentative", "extents", "co_observed")}
+        for key, part in (parts | {"sides": self.evidence.sides}).items():
+            if part is not None and state.get(key) is not None:
+                part.restore(state[key])
 
     # ---------------------------------------------------------------- mutations
     def insert(self, node: Node) -> None:
@@ -345,7 +344,7 @@ class ObjectGraph:
         v.observations += 1
         if reset_misses:
             if v.misses:
-                self.evidence.forget(v.id)
+                self.evidence.forget(v.id, refuted=True)
             v.misses = 0
             self._pending.discard(v.id)
             self._last_miss.pop(v.id, None)

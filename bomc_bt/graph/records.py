@@ -161,6 +161,13 @@ class AssociationParams:
     # [m] robust: a node is removed only once its run of misses was seen from robot places at
     # least this far apart: misses from one place are one look (a robot standing at a doorway); 0: off
     miss_spacing: float = 0.0
+    # [count] robust: sectors of bearing round a node (its viewing sides) each with its own
+    # detection rate, counted from the frames that expected it there; a run of misses is judged
+    # by the lowest rate of the sides it was seen from (bomc_bt.graph.view_sides). 0: off
+    miss_sides: int = 8
+    # [-] robust: weight of the earlier passes' per-side counts a pass starts with (what the
+    # previous pass learnt, and so on back, each pass weighing them again); 0: each pass starts afresh
+    side_memory: float = 0.5
     move_radius: float = 3.0  # [m] robust: how far a removed or pending object may have moved and keep its id
     # [m] robust: when a pass ends, a node it removed and a node it added, of one category,
     # each the other's nearest within this, are one object moved (bomc_bt.graph.relocations); 0: off
@@ -268,6 +275,11 @@ class AssociationParams:
             raise ValueError("colour_tolerance must be in [0, 0.5] (0 turns it off)")
         if not 0.0 <= self.colour_match_tolerance <= 0.5:
             raise ValueError("colour_match_tolerance must be in [0, 0.5] (0 turns it off)")
+        if isinstance(self.miss_sides, bool) or not 0 <= self.miss_sides <= 64 \
+                or int(self.miss_sides) != self.miss_sides:
+            raise ValueError("miss_sides must be a whole number 0 to 64 (0 turns it off)")
+        if not 0.0 <= self.side_memory <= 1.0:
+            raise ValueError("side_memory must be in [0, 1]")
         if not 0.0 <= self.return_radius <= 2.0:
             raise ValueError("return_radius must be in [0, 2] m (0 turns it off)")
 

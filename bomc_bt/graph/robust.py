@@ -64,6 +64,7 @@ from bomc_bt.graph.parts import longer_than_one, reference_lengths
 from bomc_bt.graph.records import REMOVED, AssociationParams, Event, Node, Observation, bounded_height
 from bomc_bt.graph.replacements import Replacements
 from bomc_bt.graph.tentative import TentativeSightings
+from bomc_bt.graph.view_sides import side_of
 
 if TYPE_CHECKING:
     from bomc_bt.graph.object_graph import ObjectGraph
@@ -126,7 +127,7 @@ class RobustPolicy:
             if vid not in graph.nodes:  # an arrival an earlier miss in this loop folded into its moved node
                 continue
             if vid in matched_nodes:
-                graph.evidence.seen(vid, stamp, self.params.confirm_interval)
+                graph.evidence.seen(vid, stamp, self.params.confirm_interval, self._side(graph.nodes[vid], place))
             elif weights.get(vid, 1.0) > 0.0:
                 events.extend(self._miss(graph, graph.nodes[vid], session, stamp, weights.get(vid, 1.0), place))
         taker = {vid: obs[j] for j, vid in matched_obs.items()}  # the view each matched node took
@@ -308,7 +309,8 @@ class RobustPolicy:
         its removal once the run weighs ``misses_needed`` and was seen from places ``miss_spacing`` apart."""
         if not graph.miss(v, session, stamp, self.params.confirm_interval):
             return []
-        needed, run = self.misses_needed(graph, v), graph.evidence.missed(v.id, weight, place)
+        run = graph.evidence.missed(v.id, weight, place, self._side(v, place))
+        needed = self.misses_needed(graph, v)
         if run >= needed - 1e-9 and graph.evidence.spread(v.id) >= self.params.miss_spacing:
             arrival = moves.arrival_of(graph, v, session, self.params, self.gone)
             if arrival is not None:
@@ -348,10 +350,15 @@ class RobustPolicy:
 
     def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
         """Consecutive counted misses that remove ``v`` (:func:`~bomc_bt.graph.evidence.misses_needed`
-        at ``v``'s own detection rate)."""
+        at ``v``'s own detection rate, or its run's sides' when lower: :mod:`~bomc_bt.graph.view_sides`)."""
         p = self.params
-        rate = graph.evidence.detection_rate(v.id, p.detection_prior, p.detection_prior_weight)
+        rate = graph.evidence.run_rate(v.id, p.detection_prior, p.detection_prior_weight)
         return misses_needed(rate, p.detection_prior, p.confirm_misses, p.max_misses)
+
+    def _side(self, v: Node, place: np.ndarray | None) -> int | None:
+        """The viewing side of ``v`` the robot at ``place`` sees it from (None: unknown or not kept)."""
+        return None if place is None or not self.params.miss_sides else side_of(v.position, place,
+                                                                                self.params.miss_sides)
 
     def _move(self, graph: ObjectGraph, v: Node, o: Observation, session: int, stamp: float) -> Event:
         """``v`` moved to where ``o`` saw it: same id, a "moved" event with where it was."""

@@ -1,0 +1,115 @@
+"""Detection rates per viewing side: where a node is missed from, remembered over passes.
+
+A detector's misses are tied to views, not only to frames: a door leaf on a corridor's side
+wall, seen from along the corridor, is a sliver the detector misses whenever the robot
+drives there, and a chair behind a table leg is hidden from one side only. Robust
+association removes a node on a run of misses that would be unlikely for a present object
+(:func:`~bomc_bt.graph.evidence.misses_needed`), judged by the node's detection rate in the
+frames of this pass. A door well seen face-on has a high rate, and three misses in a row
+from along its corridor removed it (issue 17, ``hard`` preset, 36 x 28 m office, seed 9781:
+17 of 20 phantoms over 12 passes were doors removed so and found again a pass or two later,
+the same five doors again and again).
+
+So each node keeps, per *side* (``association.miss_sides`` equal sectors of bearing from the
+node to where the robot stood), how many of the frames that expected it from there saw it
+and how much miss weight they counted in runs a later detection refuted: the misses of a
+present object. A run of misses is judged by the lowest rate of the sides it was seen from,
+or the pass's own rate when that is lower (:meth:`SideRates.rate`). A run that removes the
+node teaches nothing (the object was gone); one a detection ends does. What a pass learnt is
+carried into the next one, its counts weighed by ``association.side_memory`` (saved with the
+resume point, :mod:`bomc_bt.pass_resume`): the robot drives the same corridors every pass,
+and where a view missed a present door before, a miss from there is weak evidence again.
+
+A side never seen from has the prior rate; a node the map first holds has no sides yet, so
+the first views of a duplicate or a false detection remove it as before. A side must show
+its own record: a look-alike detected from the side it is mistaken from and missed from the
+others learns that the others miss it, and stays longer -- the evidence says no more.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from bomc_bt.json_text import JSONMemo, keyed
+
+Counts = tuple[float, ...]  # per node: seen per side, then missed per side (replaced, never changed in place)
+
+
+def side_of(node_xy: Sequence[float], place: Sequence[float], sides: int) -> int:
+    """The sector (0 .. ``sides`` - 1) of the bearing from the node to the robot's ``place``."""
+    bearing = math.atan2(float(place[1]) - float(node_xy[1]), float(place[0]) - float(node_xy[0]))
+    return int(math.floor((bearing + math.pi) / (2.0 * math.pi) * sides)) % sides
+
+
+class SideRates:
+    """Per node and side: detections, and miss weight refuted by a later detection."""
+
+    def __init__(self, sides: int, memory: float) -> None:
+        self.sides = sides
+        self.memory = memory
+        self.counts: dict[int, Counts] = {}
+        self._runs: dict[int, dict[int, float]] = {}  # the current run's miss weight per side
+
+    def seen(self, node_id: int, side: int) -> None:
+        """An expected frame from ``side`` detected the node (counted once per interval)."""
+        self._add(node_id, side, 1.0, 0)
+
+    def missed(self, node_id: int, side: int, weight: float) -> None:
+        """A counted miss of ``weight`` from ``side``, part of the node's current run."""
+        run = self._runs.setdefault(node_id, {})
+        run[side] = run.get(side, 0.0) + weight
+
+    def end_run(self, node_id: int, refuted: bool) -> None:
+        """The run is over: a detection ``refuted`` it (its misses were a present object's,
+        counted to their sides) or the node left the graph (they were not)."""
+        run = self._runs.pop(node_id, None)
+        if refuted and run:
+            for side, weight in run.items():
+                self._add(node_id, side, weight, self.sides)
+
+    def run_sides(self, node_id: int) -> list[int]:
+        return sorted(self._runs.get(node_id, ()))
+
+    def rate(self, node_id: int, sides: Sequence[int], prior: float, weight: float) -> float:
+        """The lowest detection rate among ``sides``, each with ``weight`` frames' worth of ``prior``."""
+        counts = self.counts.get(node_id)
+        if counts is None or not sides:
+            return prior
+        seen = np.array([counts[s] for s in sides])
+        missed = np.array([counts[self.sides + s] for s in sides])
+        return float(np.min((seen + prior * weight) / (seen + missed + weight)))
+
+    def _add(self, node_id: int, side: int, value: float, offset: int) -> None:
+        counts = list(self.counts.get(node_id) or (0.0,) * (2 * self.sides))
+        counts[offset + side] += value
+        self.counts[node_id] = tuple(counts)
+
+    def carry(self, counts: dict[int, Counts], keep: set[int]) -> None:
+        """Start a pass with an earlier pass's ``counts`` of the nodes in ``keep``, weighed by ``memory``."""
+        if self.memory <= 0.0:
+            return
+        for node_id, c in counts.items():
+            if node_id in keep and len(c) == 2 * self.sides:
+                self.counts[node_id] = tuple(round(self.memory * float(x), 6) for x in c)
+
+    def to_json(self, memo: JSONMemo | None = None) -> dict:
+        """JSON-able state (``memo``: the counts as text, each node's encoded again only when it changed)."""
+        return {"sides": self.sides, "counts": keyed(memo, "side_counts", self.counts.items(), list),
+                "runs": {str(i): {str(s): w for s, w in run.items()} for i, run in self._runs.items()}}
+
+    def restore(self, state: dict) -> None:
+        """Put back what :meth:`to_json` saved in this pass (a resumed pass), if its sides are these."""
+        if int(state.get("sides", -1)) != self.sides:
+            return
+        self.counts = {int(i): tuple(float(x) for x in c) for i, c in state.get("counts", {}).items()}
+        self._runs = {int(i): {int(s): float(w) for s, w in run.items()} for i, run in state.get("runs", {}).items()}
+
+
+def carried_counts(state: dict | None, sides: int) -> dict[int, Counts]:
+    """The per-node counts a pass's saved :meth:`SideRates.to_json` holds (none when its sides differ)."""
+    if not isinstance(state, dict) or int(state.get("sides", -1)) != sides:
+        return {}
+    return {int(i): tuple(float(x) for x in c) for i, c in state.get("counts", {}).items()}
