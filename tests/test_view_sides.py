@@ -61,6 +61,8 @@ def test_a_door_missed_from_along_its_corridor_before_is_not_removed_by_three_mi
     assert removed_after(next_pass(SIDES, saved), ALONG, SIDES.max_misses)
     # a door taken away is still removed by three misses from where it was always seen
     assert removed_after(next_pass(SIDES, saved), FACING, 3)
+    # nor from a side pass 1 never saw it from: that side borrows the door's rate over all sides
+    assert not removed_after(next_pass(SIDES, saved), -FACING, 3)
     # side_memory 0: the pass starts afresh
     assert removed_after(next_pass(replace(SIDES, side_memory=0.0), saved), ALONG, 3)
 
@@ -77,7 +79,8 @@ def test_misses_a_removal_ends_are_not_counted_against_the_side():
     assert rates.rate(0, [2], 0.8, 2.0) == 0.8
     rates.missed(0, 2, 1.0)
     rates.end_run(0, refuted=True)
-    assert rates.rate(0, [2], 0.8, 2.0) < 0.8 and rates.rate(0, [3], 0.8, 2.0) == 0.8
+    # a side never seen from borrows the node's rate over all its sides
+    assert rates.rate(0, [2], 0.8, 2.0) < rates.rate(0, [3], 0.8, 2.0) < 0.8
 
 
 def test_sides_are_sectors_of_bearing_from_the_node():
