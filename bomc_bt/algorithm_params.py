@@ -326,6 +326,11 @@ class ProjectionParams:
     # detector may miss, and its absence there proves nothing. 90 (default): off, always
     # expected; 65 helped the hard detector preset's corridor doors (README: detector presets)
     expect_edge_on_deg: float = 90.0
+    # [deg] robust: a flat node's miss weighs in full seen within this of its face's normal,
+    # less the more edge-on it is seen (as the cosine of the angle: the width the image shows),
+    # nothing at expect_edge_on_deg: a door seen along its corridor is a sliver detectors miss.
+    # 90 or more than expect_edge_on_deg: off
+    miss_face_on_deg: float = 45.0
     # [m] robust: a miss counts only where the depth camera sees the node's place empty (more
     # than this beyond the node's centre), or a wall-high surface or one of the frame's
     # detections of its category there (one of another kind is what hides it). Something
@@ -368,8 +373,8 @@ class ProjectionParams:
             raise ValueError("miss_full_range must be >= 0 and floor_height in [0, 1] m")
         if not 0.0 <= self.expect_visible <= 1.0:
             raise ValueError("expect_visible must be in [0, 1]")
-        if not 0.0 <= self.expect_edge_on_deg <= 90.0:
-            raise ValueError("expect_edge_on_deg must be in [0, 90]")
+        if not 0.0 <= self.expect_edge_on_deg <= 90.0 or not 0.0 <= self.miss_face_on_deg <= 90.0:
+            raise ValueError("expect_edge_on_deg and miss_face_on_deg must be in [0, 90]")
         if not 0.0 <= self.absence_margin <= 1.0:
             raise ValueError("absence_margin must be in [0, 1] m (0: off)")
         if self.box_range < 0.0:

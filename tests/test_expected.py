@@ -58,6 +58,28 @@ def test_only_flat_footprints_seen_past_the_limit_are_edge_on():
     assert edge_on([flat], np.array([0.0, -3.0]), 65.0).tolist() == [False]
 
 
+def test_a_door_missed_edge_on_weighs_less_the_more_edge_on_and_a_chair_the_same_from_anywhere():
+    """The door gone, a frame from 2.4 m at 30, 62 and 80 degrees off its face's normal: the
+    miss weighs 1, then about the cosine's share of cos 45 (the width the image shows), then
+    little; seen from along the corridor three misses no longer remove it (hard preset)."""
+    params = ProjectionParams(miss_full_range=2.5)
+    weights = []
+    for angle in (30.0, 62.0, 80.0):
+        a = math.radians(angle)
+        x, y = -2.4 * math.sin(a), -2.4 * math.cos(a)
+        pose = Pose2D(x, y, math.atan2(-y, -x))
+        weights.append(miss_weights(render([], pose), [door_node()], params)[0])
+        square = door_node((-0.3, -0.3, 0.3, 0.3))  # a chair-like footprint: no face to see edge-on
+        assert miss_weights(render([], pose), [square], params) == [1.0]
+    assert weights[0] == 1.0 and 0.6 < weights[1] < 0.7 and 0.2 < weights[2] < 0.3
+    off = ProjectionParams(miss_full_range=2.5, miss_face_on_deg=90.0)
+    assert miss_weights(render([], pose), [door_node()], off) == [1.0]
+    graph = ObjectGraph(AssociationParams(), [door_node()])
+    for k in range(3):
+        graph.associate([], [1], 2, 10.0 + k, miss_weights=[weights[1]])
+    assert 1 in graph.nodes
+
+
 def chair(name: str, x: float, y: float = -1.5) -> WorldObject:
     return WorldObject(name, "chair", (x, y, 0.45), (0.5, 0.5, 0.9), yaw=0.0)
 

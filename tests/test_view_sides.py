@@ -105,3 +105,21 @@ def test_a_pass_starts_from_the_sides_the_latest_earlier_pass_saved(tmp_path):
         unsided = ObjectGraph(replace(SIDES, miss_sides=0), [door(100)])
         Perception(None, None, ["door"], ProjectionParams(), unsided, store, 3, grid)
         assert unsided.evidence.sides is None and removed_after(unsided, ALONG, 3)
+
+
+def test_a_node_that_moved_starts_its_sides_afresh_and_one_found_where_it_stood_keeps_them():
+    g = first_pass(SIDES)
+    assert removed_after(g, ALONG, 1, start=50.0) is False  # a miss from along the corridor: no run yet
+    g.associate([leaf()], [0], 1, 60.0, place=FACING)
+    counts = g.evidence.sides.counts[0]
+    assert sum(counts[8:]) > 0  # pass 1 learnt that the corridor misses it
+    for k in range(SIDES.max_misses):  # gone: removed, then seen 0.1 m off (the same place)
+        g.associate([], [0], 1, 70.0 + k, place=FACING)
+    assert 0 not in g.nodes
+    g.associate([Observation("door", np.array([0.1, 0.0, 1.0]), 0.9)], [], 1, 90.0, place=FACING)
+    assert g.nodes[0].state == "present" and sum(g.evidence.sides.counts[0][8:]) > 0
+    g.associate([], [0], 1, 91.0, place=FACING)  # gone again, and found 2 m along the wall: moved
+    for k in range(SIDES.max_misses):
+        g.associate([], [0], 1, 92.0 + k, place=FACING)
+    g.associate([Observation("door", np.array([2.0, 0.0, 1.0]), 0.9)], [], 1, 120.0, place=FACING)
+    assert g.nodes[0].state == "present" and g.evidence.sides.counts.get(0) is None

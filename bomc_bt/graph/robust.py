@@ -336,6 +336,7 @@ class RobustPolicy:
         if arrival.colour is not None:  # how it looks now
             v.colour = arrival.colour.copy()
         merged = graph.remove(arrival, session, stamp, merged_into=v.id)
+        self._new_place(graph, v, previous)
         return [merged, graph.report("moved", v, session, stamp, previous)]
 
     def take_back_moves(self, graph: ObjectGraph, session: int, stamp: float,
@@ -372,4 +373,12 @@ class RobustPolicy:
         graph.set_confidence(v, float(o.confidence))
         graph.touch(v, session, stamp)
         looks.blend(v, o.colour)
+        self._new_place(graph, v, previous)
         return graph.report("moved", v, session, stamp, previous)
+
+    def _new_place(self, graph: ObjectGraph, v: Node, previous: np.ndarray) -> None:
+        """Where ``v`` was missed from at its old place says nothing about its new one, unless
+        it is the same place (a node removed and found again where it stood)."""
+        moved = float(np.hypot(*(v.position[:2] - previous[:2])))
+        if graph.evidence.sides is not None and moved > self.params.distance(v.category):
+            graph.evidence.sides.forget(v.id)

@@ -75,6 +75,11 @@ class SideRates:
             for side, weight in run.items():
                 self._add(node_id, side, weight, self.sides)
 
+    def forget(self, node_id: int) -> None:
+        """The node's object moved: its sides start afresh."""
+        self.counts.pop(node_id, None)
+        self._runs.pop(node_id, None)
+
     def run_sides(self, node_id: int) -> list[int]:
         return sorted(self._runs.get(node_id, ()))
 
