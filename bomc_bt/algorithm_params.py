@@ -329,8 +329,9 @@ class ProjectionParams:
     # [deg] robust: a flat node's miss weighs in full seen within this of its face's normal,
     # less the more edge-on it is seen (as the cosine of the angle: the width the image shows),
     # nothing at expect_edge_on_deg: a door seen along its corridor is a sliver detectors miss.
-    # 90 or more than expect_edge_on_deg: off
-    miss_face_on_deg: float = 45.0
+    # 90 or more than expect_edge_on_deg (default): off; 45 measured on the hard preset, opt-in
+    # (docs/association.md, "Where a door is missed from")
+    miss_face_on_deg: float = 90.0
     # [m] robust: a miss counts only where the depth camera sees the node's place empty (more
     # than this beyond the node's centre), or a wall-high surface or one of the frame's
     # detections of its category there (one of another kind is what hides it). Something

@@ -61,8 +61,8 @@ def test_only_flat_footprints_seen_past_the_limit_are_edge_on():
 def test_a_door_missed_edge_on_weighs_less_the_more_edge_on_and_a_chair_the_same_from_anywhere():
     """The door gone, a frame from 2.4 m at 30, 62 and 80 degrees off its face's normal: the
     miss weighs 1, then about the cosine's share of cos 45 (the width the image shows), then
-    little; seen from along the corridor three misses no longer remove it (hard preset)."""
-    params = ProjectionParams(miss_full_range=2.5)
+    little; seen from along the corridor three misses no longer remove it (opt-in)."""
+    params = ProjectionParams(miss_full_range=2.5, miss_face_on_deg=45.0)
     weights = []
     for angle in (30.0, 62.0, 80.0):
         a = math.radians(angle)
@@ -72,8 +72,7 @@ def test_a_door_missed_edge_on_weighs_less_the_more_edge_on_and_a_chair_the_same
         square = door_node((-0.3, -0.3, 0.3, 0.3))  # a chair-like footprint: no face to see edge-on
         assert miss_weights(render([], pose), [square], params) == [1.0]
     assert weights[0] == 1.0 and 0.6 < weights[1] < 0.7 and 0.2 < weights[2] < 0.3
-    off = ProjectionParams(miss_full_range=2.5, miss_face_on_deg=90.0)
-    assert miss_weights(render([], pose), [door_node()], off) == [1.0]
+    assert miss_weights(render([], pose), [door_node()], ProjectionParams(miss_full_range=2.5)) == [1.0]  # off
     graph = ObjectGraph(AssociationParams(), [door_node()])
     for k in range(3):
         graph.associate([], [1], 2, 10.0 + k, miss_weights=[weights[1]])
