@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import base64
 import zlib
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -94,13 +95,21 @@ def coverage_masks(perception) -> dict[str, str]:
             sightings_key(session): perception.sightings.packed(), **near}
 
 
+def _earlier_graphs(store, session: int) -> Iterator[dict]:
+    """The graph states (:meth:`~bomc_bt.graph.ObjectGraph.pass_state`) the earlier passes with a
+    resume point saved last, the latest first."""
+    for earlier in sorted((s.number for s in store.sessions() if s.number < session), reverse=True):
+        point = load_resume_point(store, earlier)
+        if isinstance(point, dict):
+            yield point.get("graph") or {}
+
+
 def earlier_co_observed(store, session: int) -> list[tuple[int, int]]:
     """The node pairs the latest earlier pass with a resume point saw as two objects in one
     frame (:mod:`bomc_bt.graph.co_observed`; that pass's own and those it carried); none
     before the first pass or where no earlier pass saved one."""
-    for earlier in sorted((s.number for s in store.sessions() if s.number < session), reverse=True):
-        point = load_resume_point(store, earlier)
-        state = ((point.get("graph") or {}).get("co_observed") or {}) if isinstance(point, dict) else {}
+    for graph in _earlier_graphs(store, session):
+        state = graph.get("co_observed") or {}
         if state.get("pairs") is not None:
             return [(int(a), int(b)) for a, b in state["pairs"]]
     return []
@@ -110,11 +119,7 @@ def earlier_sides(store, session: int) -> dict | None:
     """The per-side detection counts (:mod:`bomc_bt.graph.view_sides`) the latest earlier pass
     with a resume point ended with; None where it saved none (before the first pass, or a pass
     run without them)."""
-    for earlier in sorted((s.number for s in store.sessions() if s.number < session), reverse=True):
-        point = load_resume_point(store, earlier)
-        if isinstance(point, dict):
-            return (point.get("graph") or {}).get("sides")
-    return None
+    return next((graph.get("sides") for graph in _earlier_graphs(store, session)), None)
 
 
 def restore_pass(store, session: int, robot, perception) -> bool:

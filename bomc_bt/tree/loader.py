@@ -378,4 +378,3 @@ def _unregister(client: py_trees.blackboard.Client) -> None:
     for key in set(client.read) | set(client.write) | set(client.exclusive):
         client.unregister_key(key, clear=False, update_namespace_cache=False)
     del py_trees.blackboard.Blackboard.clients[client.unique_identifier]
-
