@@ -236,3 +236,24 @@ def test_the_hard_preset_loads_from_a_config_file(tmp_path, capsys):
     assert main(["config", "--config", str(good)]) == 0
     out = capsys.readouterr().out
     assert "preset: hard" in out and "lookalike_density: 0.2" in out and "window" in out
+
+
+def test_generated_offices_of_one_name_hold_their_lookalikes_in_different_places(tmp_path):
+    """Every office the generator writes to ``office.yaml`` is named ``office``: keyed by the
+    name alone, all of them shared one layout of look-alikes and dark zones."""
+    from bomc_bt.officegen import OfficeParams, generate_office
+    from bomc_bt.world import load_world
+
+    worlds = [generate_office(OfficeParams(width=30, height=20, seed=seed), tmp_path / str(seed) / "office.yaml")
+              for seed in (3, 4)]
+    assert worlds[0].name == worlds[1].name == "office"
+    assert worlds[0].key != worlds[1].key
+    assert load_world(tmp_path / "3" / "office.yaml").key == worlds[0].key  # the same world, the same places
+    p = HardDetectorParams(lookalike_sector_share=1.0, lookalike_range=40.0)
+    centre = np.array([15.0, 10.0])
+    sites = [{tuple(np.round(s, 2)) for s, _ in detector_hard.lookalike_sites(w.key, centre, p, ["table"])}
+             for w in worlds]
+    assert sites[0] and sites[1] and sites[0] != sites[1]
+    dark = [detector_hard.in_dark_zone(w.key, np.stack(np.meshgrid(np.arange(0, 30.0), np.arange(0, 20.0)), -1)
+                                       .reshape(-1, 2), p) for w in worlds]
+    assert not np.array_equal(dark[0], dark[1])

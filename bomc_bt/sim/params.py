@@ -201,9 +201,10 @@ class CameraParams:
 class HardDetectorParams:
     """The ``hard`` preset's correlated failure modes (see bomc_bt.sim.detector_hard).
 
-    Look-alikes and dark zones are fixed per world (a hash of the world's name, the place
-    and, for look-alikes, the viewing sector), so they come back whenever the robot looks
-    from a similar pose, pass after pass; none of these fields matter to other presets.
+    Look-alikes and dark zones are fixed per world (a hash of the world's identity,
+    :attr:`bomc_bt.world.World.key`, the place and, for look-alikes, the viewing sector),
+    so they come back whenever the robot looks from a similar pose, pass after pass; none
+    of these fields matter to other presets.
     """
 
     lookalike_cell: float = 3.0  # [m] side of the floor squares that each hold at most one look-alike

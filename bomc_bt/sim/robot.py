@@ -25,7 +25,6 @@ so results do not depend on who asked. Everything random is seeded from ``seed``
 from __future__ import annotations
 
 import math
-import zlib
 from typing import Any, Literal
 
 import numpy as np
@@ -396,5 +395,5 @@ class SimRobot:
                                    list(self._objects.values()), list(self.scene.obstacles),
                                    self.people_positions(), self._true, self._estimate, self.now())
         if isinstance(frame, SimFrame):
-            frame.world_key = zlib.crc32(self.world.name.encode("utf-8"))
+            frame.world_key = self.world.key
         return frame
