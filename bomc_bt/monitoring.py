@@ -22,7 +22,6 @@ import numpy as np
 from bomc_bt.first_seen import gone_before
 from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.graph.robust import RobustPolicy
-from bomc_bt.graph.view_sides import carried_counts
 from bomc_bt.graph.walls import Walls
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
@@ -344,11 +343,12 @@ seen before it is written. With a store, every frame
             self.graph.sighted_before = self.seen_before.sighted_here
         if self.store is not None:  # two objects an earlier pass saw side by side stay two
             self.graph.keep_apart(self.session, earlier_co_observed(self.store, self.session))
-            sides = self.graph.evidence.sides  # where a present object was missed from before (graph.view_sides)
-            if sides is not None:
-                sides.carry(carried_counts(earlier_sides(self.store, self.session), sides.sides), set(self.graph.nodes))
+            gone: list = []
             if isinstance(getattr(self.graph, "policy", None), RobustPolicy):  # one back is no other's new place
-                self.graph.policy.gone = gone_before(self.store, self.session)
+                gone = self.graph.policy.gone = gone_before(self.store, self.session)
+            sides = self.graph.evidence.sides  # where an object was missed from before (graph.view_sides)
+            if sides is not None:  # of the nodes on the map and those gone, which may come back
+                sides.carry(earlier_sides(self.store, self.session), set(self.graph.nodes) | {g.id for g in gone})
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)

@@ -99,6 +99,8 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     for arrival, went in back:
         events.append(graph.report("updated", arrival, session, stamp))
         events[-1].detail = {BACK_OF: went.id}
+        if graph.evidence.sides is not None:  # where the views that removed it missed it from
+            graph.evidence.sides.bring_back(arrival.id, went.id)
     arrivals = [n for n in arrivals if n.id not in {a.id for a, _ in back}]
     near = relocation_pairs(removed, arrivals, policy.params.relocation_radius,
                             lambda v, a: looks_apart(v, a, tolerance))

@@ -235,3 +235,35 @@ def test_pair_relocations_judges_nothing_where_what_earlier_passes_saw_is_unknow
     leaf = PairRelocations("Pair", None, ctx)
     assert tick(leaf) == Status.SUCCESS and "judged again" not in leaf.feedback_message
     assert net_kind(ctx, 0) == "added"
+
+
+def test_pair_relocations_saves_what_the_next_pass_carries_with_a_node_brought_back(ctx):
+    """Pass 2 missed chair 5 from south of it (one miss removes at confirm_misses 1); pass 3
+    finds a chair at its place. The pass end's state, the new node holding chair 5's sides
+    with that miss counted against the south side, is what pass 4 reads (bomc_bt.graph.view_sides)."""
+    from bomc_bt.graph.view_sides import side_of
+    from bomc_bt.monitoring import Perception
+    from bomc_bt.pass_resume import earlier_sides
+    from bomc_bt.perception.projection import ProjectionParams
+
+    params = AssociationParams(confirm_misses=1, confirm_detections=1)
+    chair = Node(5, "chair", np.array([4.0, 0.0, 0.45]), 0.9, 1, 1, observations=9)
+    for n in (1, 2, 3):
+        ctx.store.begin_session(n, {"stamp": 0.0})
+    ctx.store.record([Event("added", 5, "chair", chair.position, 1, 1.0)], [chair])
+    ctx.graph = ObjectGraph(params, [chair], next_id=6)
+    south = np.array([4.0, -2.0])
+    ctx.store.record(ctx.graph.associate([], [5], 2, 10.0, place=south), ctx.graph.drain_changed())
+    ctx.store.end_session(2, "completed", {"stamp": 11.0}, (), {})
+    ctx.session = 3
+    grid = OccupancyGrid(np.zeros((80, 80), dtype=np.int8), 0.1, (0.0, -4.0))
+    ctx.perception = Perception(None, ctx.robot, ["chair"], ProjectionParams(), ctx.graph, ctx.store, 3, grid)
+    events = ctx.graph.associate([Observation("chair", np.array([4.05, 0.0, 0.45]), 0.9, 500, 0.0)], [], 3, 20.0,
+                                 place=np.array([4.0, 2.0]))
+    ctx.store.record(events, ctx.graph.drain_changed())
+    leaf = PairRelocations("Pair", None, ctx)
+    assert tick(leaf) == Status.SUCCESS and leaf.feedback_message.endswith("1 brought back: chair #6")
+    saved = earlier_sides(ctx.store, 4)
+    missed = np.asarray(saved["counts"]["6"])[8:]
+    assert missed.sum() == 1.0 and missed.argmax() == side_of(chair.position, south, 8)
+    assert "5" not in saved["counts"] and "5" not in saved["removals"]
