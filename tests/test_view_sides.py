@@ -161,3 +161,18 @@ def test_a_door_brought_back_where_misses_removed_it_is_not_removed_by_them_agai
     assert removed(pass_4(saved), FACING, 3)  # and from where it is always seen, three are
     # not brought back (return_radius 0: another door): it starts afresh, as before
     assert removed(pass_4(door_back_in_pass_3(replace(SIDES, return_radius=0.0))), ALONG, 3)
+
+
+def test_counts_of_a_node_gone_for_many_passes_fade_out_of_the_saved_state():
+    """Every node ever removed on evidence may come back, so its counts ride along; faded by
+    ``side_memory`` each pass, they leave the state once worth less than a hundredth of a frame."""
+    rates = SideRates(8, 0.5)
+    rates.seen(0, 2)
+    rates.missed(0, 3, 1.0)
+    rates.end_run(0, refuted=False)  # removed: that run is kept for a return
+    passes = 0
+    while 0 in rates.counts or 0 in rates.removals:
+        later = SideRates(8, 0.5)
+        later.carry(rates.to_json(), {0})
+        rates, passes = later, passes + 1
+    assert passes == 7  # 0.5 ** 7 of one frame < 0.01

@@ -34,7 +34,7 @@ A node removed on a run of misses and found again at its place in a later pass (
 back, :mod:`bomc_bt.graph.brought_back`) was most often never gone: the views that removed
 it missed it. The node found there takes the removed node's counts, and that run counts as
 refuted misses on its sides (:meth:`SideRates.bring_back`; the counts and runs of nodes gone
-on evidence are carried with the rest, for as long as they may come back). Without it each
+on evidence are carried with the rest while they may come back, until faded to ``FADED``). Without it each
 return started afresh and the same views removed it again: on a generated 36 x 28 m office
 under the ``hard`` preset (seed 9941, 12 passes) a door was removed in passes 1, 2 and 4
 and found again in passes 2, 3 and 5, another removed in passes 7 and 11 and found in 10.
@@ -53,6 +53,7 @@ import numpy as np
 from bomc_bt.json_text import JSONMemo, keyed
 
 Counts = tuple[float, ...]  # per node: seen per side, then missed per side (replaced, never changed in place)
+FADED = 0.01  # frames' worth: counts faded below this over the passes are dropped (a node gone for many passes)
 
 
 def side_of(node_xy: Sequence[float], place: Sequence[float], sides: int) -> int:
@@ -133,10 +134,10 @@ class SideRates:
         if self.memory <= 0.0:
             return
         for node_id, c in carried_counts(state, self.sides).items():
-            if node_id in keep and len(c) == 2 * self.sides:
+            if node_id in keep and len(c) == 2 * self.sides and self.memory * sum(c) >= FADED:
                 self.counts[node_id] = tuple(round(self.memory * float(x), 6) for x in c)
         for node_id, run in _runs_of(state, "removals", self.sides).items():
-            if node_id in keep:
+            if node_id in keep and self.memory * sum(run.values()) >= FADED:
                 self.removals[node_id] = {side: round(self.memory * w, 6) for side, w in run.items()}
 
     def to_json(self, memo: JSONMemo | None = None) -> dict:
