@@ -13,7 +13,7 @@ from py_trees.common import Status
 from bomc_bt.first_seen import first_seen_verdicts, gone_before
 from bomc_bt.graph import Event
 from bomc_bt.graph.brought_back import BACK_OF
-from bomc_bt.pass_resume import frame_progress
+from bomc_bt.monitoring import Perception
 from bomc_bt.report import write_session_report
 from bomc_bt.tree.leaf import Leaf
 from bomc_bt.tree.registry import register
@@ -56,9 +56,8 @@ class PairRelocations(Leaf):
         gone = gone_before(ctx.store, ctx.session)
         paired = ctx.graph.pair_relocations(ctx.session, ctx.now(), lambda n: n.id not in first_seen, gone)
         events = taken_back + paired + ctx.graph.mark_refinements(ctx.session, ctx.now())
-        if getattr(ctx.perception, "resume_rows", None) is not None:  # the next pass carries its state from here
-            ctx.store.record(events, ctx.graph.drain_changed(), frame_progress(ctx.perception, ctx.robot))
-            ctx.perception.resume_rows.written()
+        if isinstance(ctx.perception, Perception) and ctx.perception.store is not None:
+            ctx.perception.commit(events, ctx.graph.drain_changed())  # the state the next pass carries
         elif events:
             ctx.store.record(events, ctx.graph.drain_changed())
         if ctx.perception is not None:

@@ -377,7 +377,12 @@ seen before it is written. With a store, every frame
         self.frames += 1
         self.last_frame = FrameSeen(frame.stamp, frame.shape[::-1], detections, observations)
         if self.store is not None:  # every frame: the resume point moves on even without events
-            self.store.record(events, changed, frame_progress(self, self.robot), durable=False)
-            self.resume_rows.written()
+            self.commit(events, changed, durable=False)
         self.events.extend(events)
         return FrameResult(len(detections), len(observations), len(expected), events)
+
+    def commit(self, events: list, changed: list, durable: bool = True) -> None:
+        """Write ``events`` and the ``changed`` nodes with the pass's resume point as it stands, in
+        one transaction (each frame; and the pass end, whose state the next pass carries)."""
+        self.store.record(events, changed, frame_progress(self, self.robot), durable=durable)
+        self.resume_rows.written()
