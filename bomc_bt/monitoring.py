@@ -25,7 +25,7 @@ from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.walls import Walls
 from bomc_bt.grid import OccupancyGrid
 from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
-from bomc_bt.pass_resume import earlier_co_observed, earlier_sides, frame_progress
+from bomc_bt.pass_resume import earlier_co_observed, earlier_looks, earlier_sides, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
 from bomc_bt.perception.frames import Detector, Segmenter
 from bomc_bt.perception.looked import looked_polygon
@@ -349,6 +349,8 @@ seen before it is written. With a store, every frame
             sides = self.graph.evidence.sides  # where an object was missed from before (graph.view_sides)
             if sides is not None:  # of the nodes on the map and those gone, which may come back
                 sides.carry(earlier_sides(self.store, self.session), set(self.graph.nodes) | {g.id for g in gone})
+            # a node an earlier pass looked at from one place only: that look counts (miss_spacing)
+            self.graph.evidence.looked_before = earlier_looks(self.store, self.session) & set(self.graph.nodes)
 
     def process(self, frame: RGBDFrame) -> FrameResult:
         detections = self.detector.detect(frame, self.categories)

@@ -122,6 +122,14 @@ def earlier_sides(store, session: int) -> dict | None:
     return next((graph.get("sides") for graph in _earlier_graphs(store, session)), None)
 
 
+def earlier_looks(store, session: int) -> set[int]:
+    """The nodes the latest earlier pass with a resume point ended awaiting a second look, or
+    began with an earlier pass's look at that no detection ended since
+    (:meth:`~bomc_bt.graph.evidence.MissEvidence.looks_json`; ``association.miss_spacing``)."""
+    state = next((graph.get("second_looks") or {} for graph in _earlier_graphs(store, session)), {})
+    return {int(i) for i in [*state.get("before", []), *state.get("awaiting", [])]}
+
+
 def restore_pass(store, session: int, robot, perception) -> bool:
     """Put a killed pass's saved state back into ``robot`` and ``perception`` (and its
     graph); False when nothing was saved (the pass was killed before its first commit)."""

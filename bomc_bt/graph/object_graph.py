@@ -56,12 +56,11 @@ class ObjectGraph:
         self._session: int | None = None
         self._changed: dict[int, Node] = {}
         self._reported: dict[int, np.ndarray] = {}  # position at the last event of a node
-        # robust: what the frames that expected each node showed, per viewing side (graph.view_sides)
-        sides = params.miss_sides if params.mode == "robust" else 0
+        sides = params.miss_sides if params.mode == "robust" else 0  # robust: per viewing side (graph.view_sides)
         self.evidence = MissEvidence(SideRates(sides, params.side_memory) if sides else None)
-        # position -> whether no earlier pass looked there (bomc_bt.first_seen): an object found
-        # there beyond a node's gate was most likely always there, so the robust policy takes
-        # it for no removed object's new place. None: nothing known.
+        # position -> whether no earlier pass looked there (bomc_bt.first_seen): an object found there beyond
+        # a node's gate was most likely always there, so the robust policy takes it for no removed object's
+        # new place. None: nothing known.
         self.never_looked: Callable[[np.ndarray], bool] | None = None
         # (category, position) -> whether the previous pass detected an object of that category
         # there (bomc_bt.sightings): an object found there had stood there, missed, and is no
@@ -152,7 +151,7 @@ class ObjectGraph:
         for v in self.nodes.values():
             place = self.evidence.run_place(v.id)
             if v.state == PRESENT and place is not None and self.evidence.run(v.id) >= needed(self, v) - 1e-9 \
-                    and self.evidence.spread(v.id) < self.params.miss_spacing:
+                    and not self.evidence.apart(v.id, self.params.miss_spacing):
                 waiting.append((v, place))
         return waiting
 
@@ -250,6 +249,7 @@ class ObjectGraph:
             "extents": None if extents is None else extents.to_json(memo),
             "co_observed": None if co_observed is None else co_observed.to_json(),
             "sides": None if self.evidence.sides is None else self.evidence.sides.to_json(memo),
+            "second_looks": self.evidence.looks_json(v.id for v, _ in self.awaiting_second_look()),
             "started": keyed(memo, "started", self.started.items(),
                              lambda s: [None if s[0] is None else s[0].tolist(), s[1].tolist()]),
         }
@@ -268,6 +268,7 @@ class ObjectGraph:
             if int(key) in self.nodes:
                 self.nodes[int(key)].last_seen = float(seen)
         self._last_miss = {int(k): (int(v[0]), float(v[1])) for k, v in state.get("last_miss", {}).items()}
+        self.evidence.looked_before = set(map(int, (state.get("second_looks") or {}).get("before", [])))
         self._removed_now = {i: removed[i] for i in map(int, state.get("removed_now", [])) if i in removed}
         self._reported = {int(k): np.asarray(v, dtype=float) for k, v in state.get("reported", {}).items()}
         self.started = {int(k): (None if fp is None else np.asarray(fp, dtype=float), np.asarray(p, dtype=float))

@@ -159,7 +159,8 @@ class AssociationParams:
     max_misses: int = 12  # [count] robust: consecutive misses that remove any node, however rarely detected
     confirm_interval: float = 0.5  # [s] robust: robot time between two counted misses or two confirming sightings
     # [m] robust: a node is removed only once its run of misses was seen from robot places at
-    # least this far apart: misses from one place are one look (a robot standing at a doorway); 0: off
+    # least this far apart: misses from one place are one look (a robot standing at a doorway); a pass that
+    # ends with one look leaves the next pass's run from anywhere as the second (a pass late); 0: off
     miss_spacing: float = 0.0
     # [count] robust: sectors of bearing round a node (its viewing sides) each with its own
     # detection rate, counted from the frames that expected it there; a run of misses is judged

@@ -306,12 +306,13 @@ class RobustPolicy:
     def _miss(self, graph: ObjectGraph, v: Node, session: int, stamp: float, weight: float,
               place: np.ndarray | None) -> list[Event]:
         """Count a miss of the expected, unmatched ``v`` (weighing ``weight``, the robot at ``place``);
-        its removal once the run weighs ``misses_needed`` and was seen from places ``miss_spacing`` apart."""
+        its removal once the run weighs ``misses_needed`` and was seen from places ``miss_spacing`` apart
+        (or an earlier pass ended with a look of its own: :meth:`~.evidence.MissEvidence.apart`)."""
         if not graph.miss(v, session, stamp, self.params.confirm_interval):
             return []
         run = graph.evidence.missed(v.id, weight, place, self._side(v, place))
         needed = self.misses_needed(graph, v)
-        if run >= needed - 1e-9 and graph.evidence.spread(v.id) >= self.params.miss_spacing:
+        if run >= needed - 1e-9 and graph.evidence.apart(v.id, self.params.miss_spacing):
             arrival = moves.arrival_of(graph, v, session, self.params, self.gone)
             if arrival is not None:
                 return self.moved_to(graph, v, arrival, session, stamp)
