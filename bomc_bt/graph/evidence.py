@@ -78,8 +78,8 @@ class MissEvidence:
 
     def apart(self, node_id: int, spacing: float) -> bool:
         """Whether the node's current run of misses counts as looks from ``spacing`` (m) apart:
-        its places lie that far apart, or an earlier pass's look ended as this one's began
-        (:attr:`looked_before`)."""
+        its places lie that far apart, or an earlier pass ended with a look of its own at the
+        node that no detection has answered since (:attr:`looked_before`)."""
         return self.spread(node_id) >= spacing or node_id in self.looked_before
 
     def looks_json(self, awaiting: Iterable[int]) -> dict:
