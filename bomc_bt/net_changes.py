@@ -20,7 +20,8 @@ compares each node that had an event in it:
   new to the map and not a change. It is listed apart and is no change an evaluation
   scores. From the empty map (``since=None``) every new node is ``added``;
 * present -> absent where the removal was marked retracted (the node had been matched in
-  only a few frames in all, ``association.retract_observations``): ``retracted``, the map
+  only a few frames in all, ``association.retract_observations``, or missed moments after the
+  same pass saw it, ``association.retract_within``): ``retracted``, the map
   withdrawing sightings it no longer trusts, not an object that went. Listed apart like
   first-seen nodes, and no change an evaluation scores.
 
@@ -103,7 +104,10 @@ class NetChange:
         elif self.kind == "moved":
             text = f"moved {what} {at(self.old)} -> {at(self.new)}, {self.distance:.2f} m"
         elif self.kind == RETRACTED:
-            text = f"retracted {what} at {at(self.old)} (seen in too few frames to trust; no object seen since)"
+            then = "" if self.last_seen is None else (
+                f", or seen t={self.last_seen:.1f} s and missing {self.stamp - self.last_seen:.1f} s later: "
+                "a sighting that depends on the view")
+            text = f"retracted {what} at {at(self.old)} (seen in too few frames to trust{then}; no object seen since)"
         else:
             seen = "not seen this pass" if self.last_seen is None else f"last seen t={self.last_seen:.1f} s"
             frames = "" if self.missing_frames is None else f"missing in {self.missing_frames} frames, "

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from bomc_bt.graph.history import withdrawn_nodes
 from bomc_bt.json_text import JSONMemo
 from bomc_bt.resume_rows import load_resume_point
 
@@ -141,6 +142,8 @@ def restore_pass(store, session: int, robot, perception) -> bool:
         restore(point["robot"])
     removed = {n.id: n for n in store.nodes(include_removed=True) if n.state != "present"}
     perception.graph.restore_pass_state(point.get("graph") or {}, removed)
+    if isinstance(getattr(perception.graph.policy, "withdrawn", None), set):  # robust: what it retracted
+        perception.graph.policy.withdrawn = withdrawn_nodes(store.events(session=session))
     perception.frames = int(point.get("frames", 0))
     coverage = perception.coverage
     snapshot = store.get_progress(coverage_key(session))

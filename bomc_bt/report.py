@@ -159,7 +159,8 @@ def _changes_markdown(changes: dict[str, Any] | None) -> list[str]:
         lines += [f"- {c.describe()}" for c in first]
     withdrawn = [c for c in records if c.kind == RETRACTED]
     if withdrawn:
-        lines += ["", f"## Retracted: {len(withdrawn)} (seen in too few frames to trust; dropped, not changes)", ""]
+        lines += ["", f"## Retracted: {len(withdrawn)} (seen in too few frames, or missed moments after a sighting: "
+                  "not trusted; dropped, not changes)", ""]
         lines += [f"- {c.describe()}" for c in withdrawn]
     return lines
 

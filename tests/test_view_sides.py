@@ -118,10 +118,11 @@ def test_a_node_that_moved_starts_its_sides_afresh_and_one_found_where_it_stood_
     assert 0 not in g.nodes
     g.associate([Observation("door", np.array([0.1, 0.0, 1.0]), 0.9)], [], 1, 90.0, place=FACING)
     assert g.nodes[0].state == "present" and sum(g.evidence.sides.counts[0][8:]) > 0
-    g.associate([], [0], 1, 91.0, place=FACING)  # gone again, and found 2 m along the wall: moved
+    # gone again a minute later (not moments after a sighting), and found 2 m along the wall: moved
+    g.associate([], [0], 1, 151.0, place=FACING)
     for k in range(SIDES.max_misses):
-        g.associate([], [0], 1, 92.0 + k, place=FACING)
-    g.associate([Observation("door", np.array([2.0, 0.0, 1.0]), 0.9)], [], 1, 120.0, place=FACING)
+        g.associate([], [0], 1, 152.0 + k, place=FACING)
+    g.associate([Observation("door", np.array([2.0, 0.0, 1.0]), 0.9)], [], 1, 180.0, place=FACING)
     assert g.nodes[0].state == "present" and g.evidence.sides.counts.get(0) is None
 
 

@@ -31,3 +31,11 @@ def replay_graph(events: Iterable[Event]) -> list[Node]:
             node.last_session = e.session
             node.observations += 1
     return [n for _, n in sorted(nodes.items()) if n.state == PRESENT]
+
+
+def withdrawn_nodes(events: Iterable[Event]) -> set[int]:
+    """The nodes whose last removal among ``events`` (a pass's, in write order) retracted them as
+    missed moments after a sighting (``contradicted`` in its detail; ``association.retract_within``):
+    the map withdrew them, no object went."""
+    last = {e.node_id: e for e in events if e.kind == "removed"}
+    return {nid for nid, e in last.items() if e.retracted and "contradicted" in (e.detail or {})}

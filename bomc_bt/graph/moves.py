@@ -28,7 +28,7 @@ makes it a move.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -43,9 +43,10 @@ if TYPE_CHECKING:
 
 
 def removed_here(graph: ObjectGraph, o: Observation, gate: float, params: AssociationParams,
-                 gone: Sequence[Node] = ()) -> Node | None:
+                 gone: Sequence[Node] = (), withdrawn: Collection[int] = ()) -> Node | None:
     """The node of ``o``'s category removed this session that ``o`` sees moved (nearest, then
-    lowest id; ``gate``: ``o``'s own, m; ``gone``: nodes earlier passes saw go)."""
+    lowest id; ``gate``: ``o``'s own, m; ``gone``: nodes earlier passes saw go). A ``withdrawn``
+    node (retracted: no object went from its place) may come back at its place, never move."""
     fresh = never_looked(graph, o)
     best: tuple[float, int, Node] | None = None
     for v in graph.removed_this_session():
@@ -54,7 +55,7 @@ def removed_here(graph: ObjectGraph, o: Observation, gate: float, params: Associ
         d = float(np.linalg.norm((v.position - o.position) * graph.index.scale))
         if d > params.move_radius or (best is not None and (d, v.id) >= best[:2]):
             continue
-        if d > gate and (fresh or sighted_before(graph, o, v, params.sighting_radius)):
+        if d > gate and (fresh or v.id in withdrawn or sighted_before(graph, o, v, params.sighting_radius)):
             continue
         if not looks_apart(v, o, params.colour_tolerance):
             best = (d, v.id, v)

@@ -36,7 +36,7 @@ the camera comes by, which decides it during the pass.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -84,14 +84,16 @@ def take_back_moves(policy: RobustPolicy, graph: ObjectGraph, session: int, stam
 
 
 def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, stamp: float,
-                     candidate: Callable[[Node], bool], gone: Sequence[Node] = ()) -> list[Event]:
+                     candidate: Callable[[Node], bool], gone: Sequence[Node] = (),
+                     withdrawn: Collection[int] = ()) -> list[Event]:
     """Steps 2 and 3: each node the pass removed, paired with a ``candidate`` node it added,
     moved there (``gone``: the nodes earlier passes removed on evidence, as they last stood:
-    an addition at one's place is its return, no arrival)."""
+    an addition at one's place is its return, no arrival; ``withdrawn``: the nodes the pass
+    retracted, whatever their count of frames)."""
     events = _join_parts(policy, graph, session, stamp)
     # a retracted node was never trusted: no object stood at its place to have moved from there
     removed = [v for v in graph.removed_this_session()
-               if v.first_session < session and not policy.params.retracts(v)]
+               if v.first_session < session and not policy.params.retracts(v) and v.id not in withdrawn]
     arrivals = [n for n in graph.nodes.values() if n.first_session == session and candidate(n)]
     tolerance = policy.params.colour_tolerance
     gone = [g for g in gone if g.id not in {v.id for v in removed}]  # a place it left: it may be back

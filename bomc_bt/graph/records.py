@@ -228,6 +228,11 @@ class AssociationParams:
     # reported apart from the changes (bomc_bt.net_changes). 1: never matched again after the
     # sightings that confirmed it; 0: off
     retract_observations: int = 1
+    # [s] robust: a node that misses take off within this much robot time of a frame of the same
+    # pass that matched it is retracted, not removed: one visit saw it and then missed it from
+    # elsewhere (a look-alike seen from one side, a door missed edge-on), which says the sighting
+    # depends on the view, not that the object went (bomc_bt.net_changes). 0: off
+    retract_within: float = 30.0
 
     def __post_init__(self) -> None:
         if not self.default_distance > 0:
@@ -267,6 +272,8 @@ class AssociationParams:
             raise ValueError("sighting_radius must be in [0, 2] m")
         if not 0 <= self.retract_observations <= 1000:
             raise ValueError("retract_observations must be 0 to 1000")
+        if not 0.0 <= self.retract_within <= 3600.0:
+            raise ValueError("retract_within must be in [0, 3600] s (0 turns it off)")
         if not 0.0 <= self.relabel_radius <= 2.0:
             raise ValueError("relabel_radius must be in [0, 2] m")
         if isinstance(self.replace_sightings, bool) or not 0 <= self.replace_sightings <= 1000 \
@@ -292,6 +299,15 @@ class AssociationParams:
         """Whether ``v``, taken off now, is retracted rather than removed: matched in at most
         ``retract_observations`` frames in all, so the map never trusted an object there."""
         return v.observations <= self.retract_observations
+
+    def contradicted(self, v: Node, session: int, stamp: float) -> float | None:
+        """Seconds since a frame of ``session`` matched ``v``, taken off at ``stamp``, where that
+        is at most ``retract_within`` (None otherwise): the misses contradict a sighting of the
+        same visit, so ``v`` is retracted, not removed."""
+        if self.retract_within <= 0 or v.last_seen is None or v.last_session != session:
+            return None
+        since = stamp - v.last_seen
+        return since if 0.0 <= since <= self.retract_within else None
 
     def largest_distance(self) -> float:
         """The largest delta_c of any category: the spatial index's cell size."""

@@ -38,7 +38,9 @@
 * *Retract, not remove, what was barely seen.* A node matched in at most ``retract_observations`` frames in all
   (by default: never matched again after the two sightings of a look-alike that confirmed it) that misses take
   off is marked retracted: the map drops it either way, but the change report does not tell the operator an
-  object went (:mod:`bomc_bt.net_changes`).
+  object went (:mod:`bomc_bt.net_changes`). So is one taken off within ``retract_within`` of a frame of the
+  same pass that matched it: the visit that saw it missed it from elsewhere moments later, a view-dependent
+  sighting (a look-alike, a door edge-on), not an object carried off -- that one the pass never sees.
 * *Sparse updated events*: at a node's first match in a session, after a ``report_distance`` drift (reconciled at end).
 
 Distances are measured on (x, y, w * z), w = ``vertical_weight``: a tall object cut off by the image edge sits low
@@ -85,6 +87,9 @@ class RobustPolicy:
         self.co_observed = CoObserved()  # nodes one frame matched as two objects (never folded)
         self.replacements = Replacements(params.replace_sightings, params.confirm_interval)
         self.gone: Sequence[Node] = ()  # nodes earlier passes saw go (first_seen.gone_before), given by the pass
+        # nodes whose latest removal retracted them as seen moments before (no object went, nor
+        # moved from there); a resumed pass reads them back from its events (pass_resume.restore_pass)
+        self.withdrawn: set[int] = set()
 
     def gate(self, o: Observation) -> float:
         """delta_c, widened by a large object's own spread (capped at ``extent_gate`` * delta_c).
@@ -158,7 +163,7 @@ class RobustPolicy:
             o = obs[j]
             if not confirmed[k] or near_any(o, placed, self.gate(o), graph.index.scale):
                 continue
-            moved = moves.removed_here(graph, o, self.gate(o), self.params, self.gone)
+            moved = moves.removed_here(graph, o, self.gate(o), self.params, self.gone, self.withdrawn)
             events.append(self._move(graph, moved, o, session, stamp) if moved else graph.add(o, session, stamp))
             placed.append(graph.nodes[events[-1].node_id])
             if not moved:
@@ -313,12 +318,20 @@ class RobustPolicy:
         run = graph.evidence.missed(v.id, weight, place, self._side(v, place))
         needed = self.misses_needed(graph, v)
         if run >= needed - 1e-9 and graph.evidence.apart(v.id, self.params.miss_spacing):
-            arrival = moves.arrival_of(graph, v, session, self.params, self.gone)
+            since = self.params.contradicted(v, session, stamp)  # seen moments ago: it went nowhere
+            arrival = None if since is not None else moves.arrival_of(graph, v, session, self.params, self.gone)
             if arrival is not None:
                 return self.moved_to(graph, v, arrival, session, stamp)
             twin = twin_of(graph, v, self.params.distance(v.category), self.co_observed.seen_apart)
             into = None if twin is None else twin.id  # a duplicate of the node there: no change
-            return [graph.remove(v, session, stamp, merged_into=into, retracted=self.params.retracts(v))]
+            retracted = into is None and (since is not None or self.params.retracts(v))
+            event = graph.remove(v, session, stamp, merged_into=into, retracted=retracted)
+            if retracted and since is not None:
+                event.detail["contradicted"] = round(since, 1)
+                self.withdrawn.add(v.id)
+            else:
+                self.withdrawn.discard(v.id)
+            return [event]
         return []
 
     def moved_to(self, graph: ObjectGraph, v: Node, arrival: Node, session: int, stamp: float) -> list[Event]:
@@ -348,7 +361,7 @@ class RobustPolicy:
     def pair_relocations(self, graph: ObjectGraph, session: int, stamp: float,
                          candidate: Callable[[Node], bool], gone: Sequence[Node] = ()) -> list[Event]:
         """When the pass ends: parts joined, removals paired with additions (:mod:`~bomc_bt.graph.pass_end`)."""
-        return pass_end.pair_relocations(self, graph, session, stamp, candidate, gone)
+        return pass_end.pair_relocations(self, graph, session, stamp, candidate, gone, self.withdrawn)
 
     def misses_needed(self, graph: ObjectGraph, v: Node) -> int:
         """Consecutive counted misses that remove ``v`` (:func:`~bomc_bt.graph.evidence.misses_needed`

@@ -97,7 +97,7 @@ def _describe(c: dict[str, Any]) -> str:
 
     words = f"{c['kind']} node {c['id']} ({c['category']})"
     if c["kind"] == "retracted":
-        words += f" at {at(c['old'])}: seen in too few frames to trust"
+        words += f" at {at(c['old'])}: seen in too few frames to trust, or missed moments after a sighting"
     elif c["kind"] == "removed":
         words += f" at {at(c['old'])}: " + ("merged into a neighbour" if c["merged"] else
                                            f"missing in {_or_unknown(c['missing_frames'])} frame(s)")
