@@ -77,6 +77,16 @@ def test_a_chair_the_pass_never_saw_is_removed_and_so_is_one_missed_long_after_i
     assert [(e.kind, e.retracted) for e in events if e.kind == "removed"] == [("removed", False)]
 
 
+def test_a_bin_carried_off_while_the_robot_watched_from_a_side_that_saw_it_is_removed():
+    """Seen from beside and from in front, then missed from beside seconds later: that side saw
+    it before, so its misses are evidence of absence (an intra-session change: a bin taken
+    away 6 s after the robot saw it, a 36 x 28 m office, seed 10131, pass 9)."""
+    graph = ObjectGraph(PARAMS, [chair_of_pass_1()])
+    graph.associate([seen()], [0], 2, 5.0, place=SIDE)
+    events = pass_2(graph, seen_at=10.0, misses_from=10.5)
+    assert [(e.kind, e.retracted) for e in events if e.kind == "removed"] == [("removed", False)]
+
+
 def test_with_retract_within_zero_a_chair_missed_after_its_sighting_is_a_removal():
     graph = ObjectGraph(replace(PARAMS, retract_within=0.0), [chair_of_pass_1()])
     events = pass_2(graph, seen_at=10.0, misses_from=10.5)

@@ -318,7 +318,10 @@ class RobustPolicy:
         run = graph.evidence.missed(v.id, weight, place, self._side(v, place))
         needed = self.misses_needed(graph, v)
         if run >= needed - 1e-9 and graph.evidence.apart(v.id, self.params.miss_spacing):
-            since = self.params.contradicted(v, session, stamp)  # seen moments ago: it went nowhere
+            since = self.params.contradicted(v, session, stamp)  # seen moments ago: it went nowhere,
+            if since is not None and graph.evidence.sides is not None \
+                    and graph.evidence.sides.run_seen(v.id) >= 1.0:  # unless missed from where it was seen
+                since = None
             arrival = None if since is not None else moves.arrival_of(graph, v, session, self.params, self.gone)
             if arrival is not None:
                 return self.moved_to(graph, v, arrival, session, stamp)
@@ -326,11 +329,9 @@ class RobustPolicy:
             into = None if twin is None else twin.id  # a duplicate of the node there: no change
             retracted = into is None and (since is not None or self.params.retracts(v))
             event = graph.remove(v, session, stamp, merged_into=into, retracted=retracted)
-            if retracted and since is not None:
+            (self.withdrawn.add if retracted and since is not None else self.withdrawn.discard)(v.id)
+            if v.id in self.withdrawn:
                 event.detail["contradicted"] = round(since, 1)
-                self.withdrawn.add(v.id)
-            else:
-                self.withdrawn.discard(v.id)
             return [event]
         return []
 

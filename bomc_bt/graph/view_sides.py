@@ -112,6 +112,12 @@ class SideRates:
     def run_sides(self, node_id: int) -> list[int]:
         return sorted(self._runs.get(node_id, ()))
 
+    def run_seen(self, node_id: int) -> float:
+        """Detections (frames' worth, earlier passes' weighed by ``memory``) from the sides the
+        current run of misses was seen from: none, and the misses say the sighting depends on the view."""
+        counts = self.counts.get(node_id)
+        return 0.0 if counts is None else float(sum(counts[side] for side in self._runs.get(node_id, ())))
+
     def rate(self, node_id: int, sides: Sequence[int], prior: float, weight: float) -> float:
         """The lowest detection rate among ``sides``: each side's counts with ``weight`` frames'
         worth of the node's rate over all sides, itself with ``weight`` frames' worth of ``prior``."""
