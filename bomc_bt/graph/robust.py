@@ -320,7 +320,7 @@ class RobustPolicy:
         if run >= needed - 1e-9 and graph.evidence.apart(v.id, self.params.miss_spacing):
             since = self.params.contradicted(v, session, stamp)  # seen moments ago: it went nowhere,
             if since is not None and graph.evidence.sides is not None \
-                    and graph.evidence.sides.run_seen(v.id) >= 1.0:  # unless missed from where it was seen
+                    and graph.evidence.sides.run_clear(v.id):  # unless missed from sides that never missed it
                 since = None
             arrival = None if since is not None else moves.arrival_of(graph, v, session, self.params, self.gone)
             if arrival is not None:

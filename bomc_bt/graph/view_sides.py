@@ -54,6 +54,7 @@ from bomc_bt.json_text import JSONMemo, keyed
 
 Counts = tuple[float, ...]  # per node: seen per side, then missed per side (replaced, never changed in place)
 FADED = 0.01  # frames' worth: counts faded below this over the passes are dropped (a node gone for many passes)
+CLEAR = 0.05  # frames' worth of refuted misses below which a side never missed a present node (one faded 5 passes)
 
 
 def side_of(node_xy: Sequence[float], place: Sequence[float], sides: int) -> int:
@@ -112,11 +113,16 @@ class SideRates:
     def run_sides(self, node_id: int) -> list[int]:
         return sorted(self._runs.get(node_id, ()))
 
-    def run_seen(self, node_id: int) -> float:
-        """Detections (frames' worth, earlier passes' weighed by ``memory``) from the sides the
-        current run of misses was seen from: none, and the misses say the sighting depends on the view."""
-        counts = self.counts.get(node_id)
-        return 0.0 if counts is None else float(sum(counts[side] for side in self._runs.get(node_id, ())))
+    def run_clear(self, node_id: int) -> bool:
+        """Whether the sides the current run of misses was seen from had detected the node (a
+        frame's worth or more, earlier passes' weighed by ``memory``) and had not missed it while
+        it stood there (less than ``CLEAR`` of refuted miss weight): misses from such sides are
+        evidence of absence even moments after a sighting; from others they may be the view's."""
+        counts, run = self.counts.get(node_id), self._runs.get(node_id, {})
+        if counts is None or not run:
+            return False
+        seen = sum(counts[side] for side in run)
+        return seen >= 1.0 and sum(counts[self.sides + side] for side in run) < CLEAR
 
     def rate(self, node_id: int, sides: Sequence[int], prior: float, weight: float) -> float:
         """The lowest detection rate among ``sides``: each side's counts with ``weight`` frames'
