@@ -1,11 +1,11 @@
 """Seen, then missed moments later in the same visit: a view-dependent sighting, retracted, not removed.
 
 An object carried off before a pass is never seen by that pass. A node the pass saw and then lost
-to a run of misses seconds later, from another side, is a look-alike seen only from some views or a
-door missed edge-on (``hard`` preset, static 93 x 90 m office, seed 10081: 9 of the phantoms of
-passes 2-6 on seven floors were such removals, 1.5-22 s after the node's last sighting; every true
-removal came at least 880 s after it). ``association.retract_within`` retracts it: the map drops
-the node, the report does not tell the operator an object went.
+to a run of misses seconds later is a look-alike seen only from some views or a door missed
+edge-on (generated offices, both presets, seven sites: 9 removals 1.5-22 s after the node's last
+sighting, all phantoms; every true removal came at least 880 s after one).
+``association.retract_within`` retracts it: the map drops the node, the report does not tell the
+operator an object went -- unless the misses came from sides that saw it and never missed it.
 """
 
 from __future__ import annotations
