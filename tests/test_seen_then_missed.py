@@ -99,10 +99,11 @@ def test_but_a_side_that_had_missed_it_while_it_stood_there_proves_nothing_momen
     assert [(e.kind, e.retracted) for e in events if e.kind == "removed"] == [("removed", True)]
 
 
-def test_with_retract_within_zero_a_chair_missed_after_its_sighting_is_a_removal():
-    graph = ObjectGraph(replace(PARAMS, retract_within=0.0), [chair_of_pass_1()])
-    events = pass_2(graph, seen_at=10.0, misses_from=10.5)
-    assert [(e.kind, e.retracted) for e in events if e.kind == "removed"] == [("removed", False)]
+def test_with_retract_within_zero_or_no_viewing_sides_a_chair_missed_after_its_sighting_is_a_removal():
+    for params in (replace(PARAMS, retract_within=0.0), replace(PARAMS, miss_sides=0)):
+        graph = ObjectGraph(params, [chair_of_pass_1()])
+        events = pass_2(graph, seen_at=10.0, misses_from=10.5)
+        assert [(e.kind, e.retracted) for e in events if e.kind == "removed"] == [("removed", False)]
 
 
 def test_a_sighting_in_an_earlier_pass_does_not_make_a_miss_a_retraction():

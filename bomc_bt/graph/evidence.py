@@ -117,6 +117,12 @@ class MissEvidence:
         r = self._records.get(node_id, DetectionRecord())
         return (r.seen + prior * weight) / (r.seen + r.missed + weight)
 
+    def sides_prove_absence(self, node_id: int) -> bool:
+        """Whether the node's current run is evidence of absence whatever came just before it: its
+        viewing sides unknown (``association.miss_sides`` 0, no robot place: no view to blame), or
+        sides that saw the node and never missed it while present (:meth:`SideRates.run_clear`)."""
+        return self.sides is None or not self.sides.run_sides(node_id) or self.sides.run_clear(node_id)
+
     def run_rate(self, node_id: int, prior: float, weight: float) -> float:
         """The rate the node's current run is judged by: :meth:`detection_rate`, or the lowest
         rate of the sides the run was seen from when that is lower."""

@@ -231,7 +231,8 @@ class AssociationParams:
     # [s] robust: a node that misses take off within this much robot time of a frame of the same
     # pass that matched it is retracted, not removed: one visit saw it and then missed it from
     # elsewhere (a look-alike seen from one side, a door missed edge-on), which says the sighting
-    # depends on the view, not that the object went (bomc_bt.net_changes). 0: off
+    # depends on the view, not that the object went (bomc_bt.net_changes), unless the misses came
+    # from viewing sides that saw it and never missed it, or no sides are kept (miss_sides 0). 0: off
     retract_within: float = 30.0
 
     def __post_init__(self) -> None:

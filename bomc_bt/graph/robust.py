@@ -318,9 +318,8 @@ class RobustPolicy:
         run = graph.evidence.missed(v.id, weight, place, self._side(v, place))
         needed = self.misses_needed(graph, v)
         if run >= needed - 1e-9 and graph.evidence.apart(v.id, self.params.miss_spacing):
-            since = self.params.contradicted(v, session, stamp)  # seen moments ago: it went nowhere,
-            if since is not None and graph.evidence.sides is not None \
-                    and graph.evidence.sides.run_clear(v.id):  # unless missed from sides that never missed it
+            since = self.params.contradicted(v, session, stamp)  # seen moments ago: it went nowhere, unless
+            if since is not None and graph.evidence.sides_prove_absence(v.id):  # no views, or ones that never missed it
                 since = None
             arrival = None if since is not None else moves.arrival_of(graph, v, session, self.params, self.gone)
             if arrival is not None:
