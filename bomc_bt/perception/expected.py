@@ -14,11 +14,11 @@ corridor, seen from along the corridor, is a sliver in the image that detectors 
 ``hard`` simulated detector does, as the paper's did). Its misses counted, the node was
 removed and a door across the corridor, 2 m away, took its id as a "move" (issue 17, hard
 preset on office-s). With ``projection.expect_edge_on_deg`` below 90 (opt-in: measured, it
-raised the hard preset's object F1 but not its change scores), a node whose floor footprint
-is at least ``_FLAT_ASPECT`` times longer than wide, seen more than that from its face's
-normal, is not expected. Footprints are axis-aligned boxes, so this knows the faces of walls' doors (the
-generator's, and most buildings'); a flat object standing diagonally has a square box and
-is always expected, as before.
+raised the hard preset's object F1 but not its change scores), a flat node (a floor footprint
+at least ``FLAT_ASPECT`` times longer than wide, :mod:`bomc_bt.graph.faces`) seen more than that
+from its face's normal is not expected. Footprints are axis-aligned boxes, so this knows the
+faces of walls' doors (the generator's, and most buildings'); a flat object standing
+diagonally has a square box and is always expected, as before.
 
 How much a miss weighs (:func:`miss_weights`): 1 within ``projection.miss_full_range``
 of the camera, falling linearly to nothing at ``expect_range``. Any detector misses far
@@ -68,12 +68,12 @@ import numpy as np
 
 from bomc_bt.algorithm_params import ProjectionParams
 from bomc_bt.graph import Node, Observation
+from bomc_bt.graph.faces import facing as face_facing
 from bomc_bt.perception.frames import Detection
 from bomc_bt.perception.projection import pixels, visible
 from bomc_bt.robot import RGBDFrame
 
 _INSET = 0.2  # share of the footprint's half-size the sampled corners lie inside it
-_FLAT_ASPECT = 3.0  # a footprint this many times longer than wide is a flat object's (a door leaf's)
 # m: above a node's centre, a surface this high up is a wall's, not furniture's; the highest
 # of these rises the image shows is looked at (a camera tilted down shows less above near nodes)
 _WALL_RISES = (0.8, 0.65, 0.5)
@@ -125,20 +125,7 @@ def edge_on(nodes: Sequence[Node], camera_xy: np.ndarray, limit_deg: float) -> n
 def facing(nodes: Sequence[Node], camera_xy: np.ndarray) -> np.ndarray:
     """Per node: the cosine of the angle between the view ray and a flat footprint's face
     normal (1: face-on, 0: edge-on); 1 for a node that is not flat or has no footprint."""
-    out = np.ones(len(nodes))
-    for i, node in enumerate(nodes):
-        fp = node.footprint
-        if fp is None:
-            continue
-        width, depth = float(fp[2] - fp[0]), float(fp[3] - fp[1])
-        if max(width, depth) < _FLAT_ASPECT * max(min(width, depth), 1e-3):
-            continue
-        normal = np.array([0.0, 1.0]) if width > depth else np.array([1.0, 0.0])
-        ray = np.asarray(node.position[:2], dtype=float) - camera_xy
-        distance = float(np.hypot(*ray))
-        if distance > 1e-6:
-            out[i] = abs(float(ray @ normal)) / distance
-    return out
+    return np.array([face_facing(node, camera_xy) for node in nodes], dtype=float).reshape(len(nodes))
 
 
 def edge_on_weights(nodes: Sequence[Node], camera_xy: np.ndarray, params: ProjectionParams) -> np.ndarray:
