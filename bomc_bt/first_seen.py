@@ -30,6 +30,11 @@ event at a place outside it with ``{"first_seen": true}`` in the event's ``detai
 :func:`bomc_bt.net_changes.net_changes` then reports the node as ``first_seen``, not
 ``added``.
 
+A flat object (a door leaf) is seen only from its faces: for a node of flat footprint the
+pass end asks whether an earlier pass looked at its place from a viewing side facing it
+(``association.face_on_deg``; the per-side looks are saved as ``looked_sides/<n>``,
+:mod:`bomc_bt.looked_sides`). Looked at only edge-on, it is first seen.
+
 The claim is only made on evidence. A pass with no earlier pass (the first of a map:
 scored against the empty map, everything is an addition) marks nothing. Neither does a
 pass when any earlier pass left no mask at all (a site recorded before the masks were saved, a
@@ -44,7 +49,7 @@ import base64
 import dataclasses
 import math
 import zlib
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -52,10 +57,12 @@ import numpy as np
 from bomc_bt.errors import BomcError
 from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node
 from bomc_bt.grid import OccupancyGrid, inflate_mask
+from bomc_bt.looked_sides import MAX_SIDES, earlier_side_looks, face_sides, side_bits, side_count
 from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key, unpack_mask
 from bomc_bt.sightings import other_looks, unpack_sightings
 
 FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail (and a pass end's ``updated`` verdict)
+UNSEEN_SIDES = "unseen_sides"  # beside it: a flat object's face-on sides, none of which an earlier pass looked from
 SIGHTED_IN = "sighted_in"  # beside it: the pass that had detected the object there (bomc_bt.sightings)
 
 
@@ -96,6 +103,11 @@ class SeenBefore:
     sighting_cells: dict[str, np.ndarray] = field(default_factory=dict)
     looks: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     colour_tolerance: float = 0.0  # [-] association.colour_tolerance (0: colours off)
+    # per square, a bit per viewing side earlier passes looked from (bomc_bt.looked_sides; None: any look counts)
+    side_seen: np.ndarray | None = None
+    side_grid: OccupancyGrid | None = None  # the squares those bits are on (None: ``grid``'s cells)
+    side_count: int = 0  # [count] of viewing sides those bits are of (association.miss_sides)
+    face_deg: float = 90.0  # [deg] association.face_on_deg: a flat node's sides within this of its normal
 
     def saw(self, xy: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
         """Bool per (x, y) point: an earlier pass saw that place (off the map: never); with
@@ -128,15 +140,20 @@ class SeenBefore:
                 marked += 1
         return marked
 
-    def verdict(self, category: str, position: np.ndarray, colour: np.ndarray | None = None) -> dict:
+    def verdict(self, category: str, position: np.ndarray, colour: np.ndarray | None = None,
+                sides: Sequence[int] = ()) -> dict:
         """What an addition of ``category`` at ``position`` (x, y[, z]) is: ``{"first_seen":
-        True}`` where no earlier pass saw the place, with ``"sighted_in"`` where the previous
-        pass detected an object of its kind there (and did not see such an object go from
-        there, nor were those detections all of a node whose look differs from ``colour``,
-        the addition's, where known); ``{"first_seen": False}``: an addition."""
+        True}`` where no earlier pass saw the place (from one of ``sides``, where given: a
+        flat object's face-on viewing sides, :mod:`bomc_bt.looked_sides`), with
+        ``"sighted_in"`` where the previous pass detected an object of its kind there (and did
+        not see such an object go from there, nor were those detections all of a node whose
+        look differs from ``colour``, the addition's, where known); ``{"first_seen": False}``:
+        an addition."""
         xy = np.asarray(position, dtype=float)[:2]
         if not self.saw(xy)[0]:
             return {FIRST_SEEN: True}
+        if not self._saw_from(xy, sides):
+            return {FIRST_SEEN: True, UNSEEN_SIDES: sorted(set(sides))}
         if self.sighted_here(category, xy) and not self._removed_near(category, xy) \
                 and not self._other_looks(category, xy, colour):
             return {FIRST_SEEN: True, SIGHTED_IN: self.sighted_in}
@@ -154,16 +171,27 @@ class SeenBefore:
         within 0.12 m of that sighting (93 x 90 m office, seed 8231, pass 2). The other way
         too: a chair's first place fell within the radius of a sighting of the chair beside it,
         its final place did not, and a true addition was called first seen (36 x 28 m office,
-        seed 8223, pass 5). Where the object stands is the node's final place."""
+        seed 8223, pass 5). Where the object stands is the node's final place, and the pass's
+        views of it have shown whether it is flat (whose faces an earlier pass must have looked
+        at: :func:`~bomc_bt.looked_sides.face_sides`)."""
         known = first_seen_verdicts(history)
         out = []
         for v in arrivals:
             if v.id not in known:
                 continue
-            verdict = self.verdict(v.category, v.position, v.colour)
+            sides = face_sides(v, self.side_count, self.face_deg) if self.side_seen is not None else []
+            verdict = self.verdict(v.category, v.position, v.colour, sides)
             if verdict[FIRST_SEEN] != known[v.id]:
                 out.append((v, verdict))
         return out
+
+    def _saw_from(self, xy: np.ndarray, sides: Sequence[int]) -> bool:
+        """Whether an earlier pass looked at ``xy`` from one of ``sides`` (True where either is unknown)."""
+        if self.side_seen is None or not sides:
+            return True
+        grid = self.grid if self.side_grid is None else self.side_grid
+        rows, cols = grid.world_to_cell(xy[None, 0], xy[None, 1])
+        return not grid.in_bounds(rows, cols)[0] or bool(int(self.side_seen[rows[0], cols[0]]) & side_bits(sides))
 
     def _other_looks(self, category: str, xy: np.ndarray, colour: np.ndarray | None) -> bool:
         """Whether the previous pass's sightings near ``xy`` (within the sighting radius, which
@@ -187,23 +215,32 @@ class SeenBefore:
 
 
 def load_seen_before(store, session: int, grid: OccupancyGrid, margin: float,
-                     sighting_radius: float = 0.0, colour_tolerance: float = 0.0) -> SeenBefore | None:
+                     sighting_radius: float = 0.0, colour_tolerance: float = 0.0, sides: int = 0,
+                     face_deg: float = 90.0) -> SeenBefore | None:
     """What the recorded passes before ``session`` saw, or None where it is not known (see the
     module docstring: no earlier pass, or one without a saved mask); with ``sighting_radius``
-    (m, > 0) also where the previous one detected objects (:mod:`bomc_bt.sightings`), and with
-    ``colour_tolerance`` (> 0) the looks of the nodes it left there."""
+    (m, > 0) also where the previous one detected objects (:mod:`bomc_bt.sightings`), with
+    ``colour_tolerance`` (> 0) the looks of the nodes it left there, and with ``sides`` (> 0)
+    and ``face_deg`` (< 90) from which of that many viewing sides each place was looked at, for
+    flat objects' faces (:mod:`bomc_bt.looked_sides`)."""
     earlier = [s.number for s in store.sessions() if s.number < session]
     if not earlier:
         return None
-    union = np.zeros(grid.data.shape, dtype=bool)
+    looked: dict[int, np.ndarray] = {}
     for number in earlier:
         mask = saved_coverage(store, number, grid.data.shape, looked_key(number))
         if mask is None:  # a pass that saved only its whole view fans: those (more seen, fewer claims)
             mask = saved_coverage(store, number, grid.data.shape)
         if mask is None:
             return None
+        looked[number] = mask
+    union = np.zeros(grid.data.shape, dtype=bool)
+    for mask in looked.values():
         union |= mask
     seen = SeenBefore(grid, widen_into_walls(union, grid, margin))
+    if 1 <= sides <= MAX_SIDES and face_deg < 90.0:
+        seen.side_seen, seen.side_grid = earlier_side_looks(store, looked, grid, margin, sides)
+        seen.side_count, seen.face_deg = sides, face_deg
     if sighting_radius > 0.0:
         seen.sighted_in = max(earlier)
         seen.sighting_cells = previous_sightings(store, seen.sighted_in, grid)
@@ -312,7 +349,7 @@ def seen_before_for(store, session: int, grid: OccupancyGrid, params: Associatio
     """:func:`load_seen_before` with the association's ``first_seen_margin``, ``sighting_radius``
     and ``colour_tolerance`` (what a monitor pass and a replayed one load)."""
     return load_seen_before(store, session, grid, params.first_seen_margin, params.sighting_radius,
-                            params.colour_tolerance)
+                            params.colour_tolerance, side_count(params), params.face_on_deg)
 
 
 def looks_after(store, session: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:

@@ -24,6 +24,7 @@ from bomc_bt.geometry import Pose2D, wrap_angle
 from bomc_bt.graph.robust import RobustPolicy
 from bomc_bt.graph.walls import Walls
 from bomc_bt.grid import OccupancyGrid
+from bomc_bt.looked_sides import LookedSides, looked_sides_for
 from bomc_bt.node_sight import line_of_sight, sees_node, sees_target
 from bomc_bt.pass_resume import earlier_co_observed, earlier_looks, earlier_sides, frame_progress
 from bomc_bt.perception.expected import expected_nodes, miss_weights
@@ -324,6 +325,7 @@ seen before it is written. With a store, every frame
     # the floor seen within projection.expect_range (where a missed object is evidence of its
     # absence): what later passes tell first-seen objects from added ones by (bomc_bt.first_seen)
     looked: Coverage = field(init=False)
+    looked_sides: LookedSides | None = field(init=False)  # and from which sides (bomc_bt.looked_sides)
     sightings: Sightings = field(init=False)  # where detections put objects (bomc_bt.sightings)
     fov_since: list = field(default_factory=list)  # view polygons since the last coverage snapshot
     looked_since: list = field(default_factory=list)  # their parts within expect_range, likewise
@@ -335,6 +337,7 @@ seen before it is written. With a store, every frame
     def __post_init__(self, grid: OccupancyGrid) -> None:
         self.coverage = Coverage(grid, self.near_range)
         self.looked = Coverage(grid)
+        self.looked_sides = looked_sides_for(grid, getattr(self.graph, "params", None))
         self.sightings = Sightings(grid)
         if isinstance(getattr(self.graph, "policy", None), RobustPolicy):  # no object's end across a wall
             self.graph.policy.walls = Walls(grid)
@@ -365,6 +368,8 @@ seen before it is written. With a store, every frame
             near = looked_polygon(frame, self.params, self.params.expect_range)
             if len(near) >= 3:
                 self.looked.add(near)
+                if self.looked_sides is not None:
+                    self.looked_sides.add(near)
                 self.looked_since.append(near.tolist())
         candidates = self.graph.nodes_in_polygon(polygon) if polygon is not None and len(polygon) >= 3 else []
         expected = expected_nodes(frame, candidates, self.params) if self.occlusion_check else candidates

@@ -36,6 +36,7 @@ import numpy as np
 
 from bomc_bt.graph.history import withdrawn_nodes
 from bomc_bt.json_text import JSONMemo
+from bomc_bt.looked_sides import looked_sides_key
 from bomc_bt.resume_rows import load_resume_point
 
 
@@ -91,9 +92,12 @@ def coverage_masks(perception) -> dict[str, str]:
     parts within reach, and the coverage's ``near`` part where it has one (a waypoint's
     snapshot, and the final masks the session's end writes)."""
     session, coverage = perception.session, perception.coverage
-    near = {near_key(session): pack_mask(coverage.near)} if coverage.near is not coverage.seen else {}
+    extra = {near_key(session): pack_mask(coverage.near)} if coverage.near is not coverage.seen else {}
+    sides = getattr(perception, "looked_sides", None)
+    if sides is not None:  # and from which sides it looked (bomc_bt.looked_sides)
+        extra[looked_sides_key(session)] = sides.packed()
     return {coverage_key(session): pack_mask(coverage.seen), looked_key(session): pack_mask(perception.looked.seen),
-            sightings_key(session): perception.sightings.packed(), **near}
+            sightings_key(session): perception.sightings.packed(), **extra}
 
 
 def _earlier_graphs(store, session: int) -> Iterator[dict]:
@@ -155,6 +159,9 @@ def restore_pass(store, session: int, robot, perception) -> bool:
     looked = store.get_progress(looked_key(session))
     if looked is not None:
         perception.looked.seen[:] = unpack_mask(looked, perception.looked.seen.shape)
+    sides = getattr(perception, "looked_sides", None)
+    if sides is not None and looked is not None:
+        sides.restore(store.get_progress(looked_sides_key(session)), perception.looked.seen)
     sightings = store.get_progress(sightings_key(session))
     if isinstance(sightings, dict):
         perception.sightings.restore(sightings)
@@ -163,6 +170,8 @@ def restore_pass(store, session: int, robot, perception) -> bool:
         coverage.add(np.asarray(polygon, dtype=float))
     for polygon in point.get("looked_since", []):
         perception.looked.add(np.asarray(polygon, dtype=float))
+        if sides is not None:
+            sides.add(np.asarray(polygon, dtype=float))
     perception.fov_since = list(point.get("fov_since", []))
     perception.looked_since = list(point.get("looked_since", []))
     perception.events = list(store.events(session=session))

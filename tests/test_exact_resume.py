@@ -21,7 +21,9 @@ from site_files import bomc_command, bomc_env, error_line
 
 from bomc_bt import run
 from bomc_bt.evaluate_site import evaluate_session
+from bomc_bt.looked_sides import looked_sides_key
 from bomc_bt.officegen import OfficeParams, generate_office
+from bomc_bt.pass_resume import looked_key
 from bomc_bt.resume_rows import load_resume_point
 from bomc_bt.store import SiteStore
 from bomc_bt.world import load_world
@@ -69,6 +71,7 @@ def office(tmp_path_factory):
     result = run.run_monitor(world_path, reference, 2, seed=2, config=config)
     assert result.succeeded
     return {"world": world_path, "during": world.during_changes(2), "base": base, "config": config,
+            "reference": reference,
             "root": root, "f1": evaluate_session(world_path, reference, 2, config).overall.f1,
             "graph": final_graph(reference, 2), "sim_time": result.sim_time}
 
@@ -105,7 +108,11 @@ def test_a_pass_killed_in_process_resumes_where_it_was_with_the_same_f1(office, 
     assert evaluate_session(office["world"], site, 2, office["config"]).overall.f1 == office["f1"]
     with SiteStore(site, readonly=True) as store:
         session = store.sessions()[1]
+        looked = [store.get_progress(key) for key in (looked_key(2), looked_sides_key(2))]
     assert session.ended and session.outcome == "completed"
+    with SiteStore(office["reference"], readonly=True) as store:  # what the next pass judges additions by
+        assert looked == [store.get_progress(key) for key in (looked_key(2), looked_sides_key(2))]
+    assert looked[1] is not None
 
 
 def _looking_around(runner) -> bool:

@@ -211,6 +211,12 @@ class AssociationParams:
     # change): a door's centre lies in its wall. Anywhere else off that floor it is
     # "first_seen": new to the map, not a change (bomc_bt.first_seen)
     first_seen_margin: float = 0.3
+    # [deg] robust: a flat node (a door leaf: floor footprint 3 or more times longer than wide)
+    # is seen face-on from within this of its face's normal (bomc_bt.graph.faces). It is "added"
+    # only where an earlier pass looked at its place face-on (from a viewing side of miss_sides
+    # whose middle lies this near the normal); looked at only edge-on it is "first_seen"
+    # (bomc_bt.looked_sides). 90: every view counts (and miss_sides 0 or above 32: no looks)
+    face_on_deg: float = 45.0
     # [m] a new node this near where the previous pass detected an object of its category is
     # "first_seen", not "added": the object was there, the map had folded it into a neighbour
     # or removed it (bomc_bt.sightings). Under an object's size; 0: off
@@ -269,6 +275,8 @@ class AssociationParams:
             raise ValueError("readd_confidence must be in [0, 1]")
         if not 0.0 <= self.first_seen_margin <= 10.0:
             raise ValueError("first_seen_margin must be in [0, 10] m")
+        if not 0.0 <= self.face_on_deg <= 90.0:
+            raise ValueError("face_on_deg must be in [0, 90] deg (90: every view is face-on)")
         if not 0.0 <= self.sighting_radius <= 2.0:
             raise ValueError("sighting_radius must be in [0, 2] m")
         if not 0 <= self.retract_observations <= 1000:

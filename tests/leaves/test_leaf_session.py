@@ -7,6 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import py_trees
+import pytest
 from fake_robot import tick
 from py_trees.common import Status
 
@@ -14,7 +15,7 @@ from behaviours.common import Fail, FailParams, Wait, WaitParams
 from behaviours.perceive import PerceiveAssociate
 from behaviours.save_map import SaveMap
 from behaviours.session import EndSession, EndSessionParams, PairRelocations, StartSession
-from bomc_bt.first_seen import FIRST_SEEN, SIGHTED_IN, SeenBefore
+from bomc_bt.first_seen import FIRST_SEEN, SIGHTED_IN, UNSEEN_SIDES, SeenBefore
 from bomc_bt.graph import AssociationParams, Event, Node, ObjectGraph, Observation
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.monitoring import FrameResult
@@ -227,6 +228,22 @@ def test_pair_relocations_judges_each_addition_again_where_it_stands(ctx):
         {FIRST_SEEN: True, SIGHTED_IN: 1}]
     assert tick(PairRelocations("Pair Again", None, ctx)) == Status.SUCCESS  # a resumed pass ending again
     assert len([e for e in ctx.store.events(session=2) if e.kind == "updated"]) == 1
+
+
+@pytest.mark.parametrize("looked_from, kind", [((0, 3, 4, 7), "first_seen"), ((0, 2), "added")])
+def test_pair_relocations_calls_a_door_first_seen_that_pass_1_looked_at_only_edge_on(ctx, looked_from, kind):
+    """Pass 1 looked at the whole floor from the sides ``looked_from`` (bomc_bt.looked_sides);
+    the door this pass added, its leaf along x, faces sides 1, 2, 5 and 6. Looked at only
+    edge-on, it is first seen; looked at from side 2 too, pass 1 would have seen it: added."""
+    grid = OccupancyGrid(np.zeros((100, 100), dtype=np.int8), 0.1, (0.0, 0.0))
+    bits = np.full(grid.data.shape, sum(1 << s for s in looked_from), np.uint8)
+    door_added_off_its_middle(ctx, SeenBefore(grid, np.ones(grid.data.shape, dtype=bool), side_seen=bits,
+                                              side_count=8, face_deg=45.0))
+    ctx.graph.nodes[0].footprint = np.array([4.6, 4.97, 5.5, 5.03])
+    assert tick(PairRelocations("Pair", None, ctx)) == Status.SUCCESS
+    assert net_kind(ctx, 0) == kind
+    judged = [e.detail for e in ctx.store.events(session=2) if e.kind == "updated"]
+    assert judged == ([{FIRST_SEEN: True, UNSEEN_SIDES: [1, 2, 5, 6]}] if kind == "first_seen" else [])
 
 
 def test_pair_relocations_judges_nothing_where_what_earlier_passes_saw_is_unknown(ctx):
