@@ -7,11 +7,11 @@ office (seed 10131, ``realistic`` preset) passes 1 and 2 never detected door-19,
 wall of a corridor; pass 2 looked at its place in twelve frames, all 51-77 degrees off its
 normal, and pass 3, which saw it from in front, reported it added: a change nobody made.
 
-So each pass also keeps, per map cell, a bit per viewing side it looked at the cell from:
-the sector of the bearing from the cell to the camera, of ``association.miss_sides``
-sectors, the sides :mod:`bomc_bt.graph.view_sides` uses. Each frame's looked-at fan
-(:func:`bomc_bt.perception.looked.looked_polygon`, vertex 0 the camera) is cut along the
-sector boundaries into one fan per side (:func:`fan_sides`). The bits are saved per pass
+So each pass also keeps, per square of about :data:`CELL` (:func:`coarse_grid`), a bit per
+viewing side it looked at the square from: the sector of the bearing from it to the camera,
+of ``association.miss_sides`` sectors, the sides :mod:`bomc_bt.graph.view_sides` uses.
+Each frame's looked-at fan (:func:`bomc_bt.perception.looked.looked_polygon`, vertex 0 the
+camera) is cut along the sector boundaries into one fan per side (:func:`fan_sides`). The bits are saved per pass
 (``looked_sides/<n>`` in the store's ``progress`` table, beside ``looked/<n>``: each
 waypoint's snapshot, replayed with the fans since on resume, and the session's end). When a
 pass ends, a node it added that is flat (a floor footprint three or more times longer than
@@ -29,8 +29,8 @@ side; an empty place looked at from any side was empty.
 
 The claim is only made on evidence: an earlier pass that saved no bits (a site recorded
 before them, bits of another count of sides) counts as having looked at its whole looked-at
-floor from every side, as does any cell of that floor without a bit (a resumed pass's cells
-looked at before its last snapshot, where none was saved; a stray cell on a cut). Sides are
+floor from every side, as does any square of that floor without a bit (a resumed pass's floor
+looked at before its last snapshot, where none was saved; a stray square on a cut). Sides are
 judged from the camera here and from the robot's base in :mod:`bomc_bt.graph.view_sides`; the
 two are a few tens of centimetres apart, a few degrees at the ranges objects are detected
 from, which matters only at a sector's edge. Footprints are axis-aligned boxes, so a flat
@@ -51,7 +51,7 @@ from bomc_bt.graph.faces import flat_normal
 from bomc_bt.graph.records import Node
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 
-MAX_SIDES = 32  # the bits a cell holds (uint32); more sides keep no per-side looks
+MAX_SIDES = 32  # the bits a square holds (uint32); more sides keep no per-side looks
 CELL = 0.2  # [m] the side of the squares the looks are kept on: the map's cells, a few to a square
 
 
