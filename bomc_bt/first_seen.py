@@ -72,16 +72,20 @@ def is_first_seen(event: Event) -> bool:
 
 
 def first_seen_verdicts(events: Iterable[Event]) -> dict[int, bool]:
-    """Per node added among ``events`` (write order), whether it is new to the map: its first
+    """Per node added among ``events`` (write order), whether it is new to the map (:func:`verdicts`)."""
+    return {nid: bool(detail.get(FIRST_SEEN, False)) for nid, detail in verdicts(events).items()}
+
+
+def verdicts(events: Iterable[Event]) -> dict[int, dict]:
+    """Per node added among ``events`` (write order), the detail of its verdict: its first
     ``added`` event's mark, or the last verdict after it that a pass end wrote (an ``updated``
     event whose detail carries ``first_seen``: :meth:`SeenBefore.final_verdicts`)."""
-    out: dict[int, bool] = {}
+    out: dict[int, dict] = {}
     for e in events:
         nid = int(e.node_id)
-        if e.kind == "added" and nid not in out:
-            out[nid] = is_first_seen(e)
-        elif e.kind == "updated" and nid in out and FIRST_SEEN in (e.detail or {}):
-            out[nid] = bool(e.detail[FIRST_SEEN])
+        if (e.kind == "added" and nid not in out) or (e.kind == "updated" and nid in out
+                                                      and FIRST_SEEN in (e.detail or {})):
+            out[nid] = dict(e.detail or {})
     return out
 
 

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from bomc_bt.first_seen import first_seen_verdicts
+from bomc_bt.first_seen import SIGHTED_IN, UNSEEN_SIDES, verdicts
 from bomc_bt.graph import Event
 from bomc_bt.graph.brought_back import back_of
 from bomc_bt.graph.refinement import refined_shifts
@@ -68,6 +68,10 @@ class NetChange:
     events: int  # raw events of the node in the period
     merged: bool = False  # a removal: folded into a neighbour of its category whose id is not recorded
     back_of: int | None = None  # an addition: the node an earlier pass saw go from here (graph.brought_back)
+    # first seen: why it is new to the map -- "unseen" (no earlier pass saw the place), "edge_on"
+    # (earlier passes looked at it only edge-on: bomc_bt.looked_sides), "sighted" (the previous
+    # pass had detected it there: bomc_bt.sightings); None for the other kinds
+    first_seen_why: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-able dict (positions and times rounded to cm and 0.1 s)."""
@@ -78,7 +82,7 @@ class NetChange:
                 "new": xyz(self.new), "distance_m": round(self.distance, 2), "missing_frames": self.missing_frames,
                 "last_seen_s": None if self.last_seen is None else round(self.last_seen, 1),
                 "session": self.session, "stamp_s": round(self.stamp, 1), "events": self.events,
-                "merged": self.merged, "back_of": self.back_of}
+                "merged": self.merged, "back_of": self.back_of, "first_seen_why": self.first_seen_why}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> NetChange:
@@ -88,7 +92,7 @@ class NetChange:
 
         return cls(d["kind"], int(d["node"]), d["category"], xyz(d["old"]), xyz(d["new"]), float(d["distance_m"]),
                    d["missing_frames"], d["last_seen_s"], int(d["session"]), float(d["stamp_s"]), int(d["events"]),
-                   bool(d.get("merged", False)), d.get("back_of"))
+                   bool(d.get("merged", False)), d.get("back_of"), d.get("first_seen_why"))
 
     def describe(self) -> str:
         """One line an operator reads: what, where, and why we think so."""
@@ -100,7 +104,8 @@ class NetChange:
             back = "" if self.back_of is None else f", back where #{self.back_of} went"
             text = f"added {what} at {at(self.new)}{back}"
         elif self.kind == FIRST_SEEN:
-            text = f"first seen {what} at {at(self.new)} (no earlier pass saw this place)"
+            because = NEW_BECAUSE.get(self.first_seen_why or "unseen", NEW_BECAUSE["unseen"])
+            text = f"first seen {what} at {at(self.new)} ({because})"
         elif self.kind == "moved":
             text = f"moved {what} {at(self.old)} -> {at(self.new)}, {self.distance:.2f} m"
         elif self.kind == RETRACTED:
@@ -113,6 +118,17 @@ class NetChange:
             frames = "" if self.missing_frames is None else f"missing in {self.missing_frames} frames, "
             text = f"removed {what} at {at(self.old)} ({frames}{seen})"
         return text + ("" if self.events <= 1 else f" [{self.events} raw events]")
+
+
+# what a first-seen node's report line says for each ``first_seen_why``
+NEW_BECAUSE = {"unseen": "no earlier pass saw this place",
+                "edge_on": "earlier passes looked at this place only edge-on to it",
+                "sighted": "the previous pass had detected it here"}
+
+
+def first_seen_why(detail: dict) -> str:
+    """Why a verdict's ``detail`` calls its node first seen (:attr:`NetChange.first_seen_why`)."""
+    return "edge_on" if UNSEEN_SIDES in detail else "sighted" if SIGHTED_IN in detail else "unseen"
 
 
 def _replay(events: Sequence[Event]) -> dict[int, Event]:
@@ -139,7 +155,7 @@ def net_changes(events: Sequence[Event], since: int | None,
     counts: dict[int, int] = {}
     for e in period:
         counts[int(e.node_id)] = counts.get(int(e.node_id), 0) + 1
-    new_to_map = first_seen_verdicts(period) if since is not None else {}
+    new_to_map = {nid: d for nid, d in verdicts(period).items() if d.get(FIRST_SEEN)} if since is not None else {}
     out = []
     for nid in sorted(after):
         b, a = before.get(nid), after[nid]
@@ -160,9 +176,9 @@ def net_changes(events: Sequence[Event], since: int | None,
                                  a.last_seen, a.session, a.stamp, counts[nid],
                                  bool((a.detail or {}).get("merged", False))))
         elif now and not was:
-            kind = FIRST_SEEN if new_to_map.get(nid, False) else "added"
-            out.append(NetChange(kind, nid, a.category, None, pos, 0.0, None, None, a.session, a.stamp, counts[nid],
-                                 back_of=back.get(nid)))
+            why = first_seen_why(new_to_map[nid]) if nid in new_to_map else None
+            out.append(NetChange("added" if why is None else FIRST_SEEN, nid, a.category, None, pos, 0.0, None, None,
+                                 a.session, a.stamp, counts[nid], back_of=back.get(nid), first_seen_why=why))
     return sorted(out, key=lambda c: (REPORTED_KINDS.index(c.kind), c.node_id))
 
 

@@ -190,3 +190,41 @@ def test_saved_sides_that_are_not_of_this_map_are_one_line_naming_the_key(tmp_pa
     with pytest.raises(BomcError) as err:
         load_seen_before(store, 2, grid, 0.3, sides=8, face_deg=45.0)
     assert "looked_sides/1" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_report_says_why_a_node_is_first_seen():
+    """An operator reads one line per node: a door earlier passes looked at only edge-on is not
+    "a place no earlier pass saw"."""
+    from bomc_bt.net_changes import NetChange, net_changes
+
+    base = [Event("added", 9, "chair", np.array([1.0, 1.0, 0.45]), 1, 1.0)]  # pass 1, so pass 2 has a before
+    door_events = [Event("added", 7, "door", DOOR, 2, 10.0),
+                   Event("updated", 7, "door", DOOR, 2, 90.0, detail={FIRST_SEEN: True, UNSEEN_SIDES: [1, 2, 5, 6]}),
+                   Event("added", 8, "chair", np.array([3.0, 3.0, 0.45]), 2, 20.0,
+                         detail={FIRST_SEEN: True, "sighted_in": 1}),
+                   Event("added", 10, "chair", np.array([5.0, 3.0, 0.45]), 2, 30.0, detail={FIRST_SEEN: True}),
+                   Event("added", 11, "chair", np.array([7.0, 3.0, 0.45]), 2, 40.0)]
+    changes = {c.node_id: c for c in net_changes(base + door_events, 1, lambda _c: 0.7)}
+    assert {n: (c.kind, c.first_seen_why) for n, c in changes.items()} == {
+        7: ("first_seen", "edge_on"), 8: ("first_seen", "sighted"), 10: ("first_seen", "unseen"), 11: ("added", None)}
+    assert "earlier passes looked at this place only edge-on to it" in changes[7].describe()
+    assert "the previous pass had detected it here" in changes[8].describe()
+    assert "no earlier pass saw this place" in changes[10].describe()
+    again = NetChange.from_json(changes[7].to_json())  # a report read back (the viewer)
+    assert (again.kind, again.first_seen_why, again.describe()) == ("first_seen", "edge_on", changes[7].describe())
+    assert NetChange.from_json({**changes[10].to_json(), "first_seen_why": None}).describe() == changes[10].describe()
+
+
+def test_bomc_changes_says_why_too_in_its_table_json_and_last_csv_column():
+    from bomc_bt.site.formats import format_changes
+    from bomc_bt.site.query import NodeChange, SessionChanges
+
+    door = NodeChange(2, "first_seen", 7, "door", None, tuple(DOOR), 2, 90.0, first_seen_why="edge_on")
+    result = [SessionChanges(2, 1, [door])]
+    table = format_changes(result, "table").splitlines()
+    assert table[0] == "session 2 (since session 1): 0 change(s), 1 first seen"
+    assert table[1].startswith("  first_seen node 7 (door) at (12.00, 6.05) (earlier passes looked at this place "
+                               "only edge-on to it)")
+    header, row = format_changes(result, "csv").splitlines()[:2]
+    assert header.split(",")[-2:] == ["back_of", "first_seen_why"] and row.split(",")[-1] == "edge_on"
+    assert '"first_seen_why": "edge_on"' in format_changes(result, "json")

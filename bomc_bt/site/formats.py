@@ -17,6 +17,7 @@ import json
 from collections.abc import Sequence
 from typing import Any
 
+from bomc_bt.net_changes import NEW_BECAUSE
 from bomc_bt.site.query import SessionChanges, SiteObject
 
 OBJECT_FORMATS = ("table", "json", "csv", "geojson")
@@ -24,7 +25,7 @@ CHANGE_FORMATS = ("table", "json", "csv")
 OBJECT_COLUMNS = ("id", "category", "x", "y", "z", "confidence", "first_seen", "last_seen", "sessions_seen",
                   "notes", "distance")
 CHANGE_COLUMNS = ("session", "kind", "id", "category", "old_x", "old_y", "new_x", "new_y", "moved_m",
-                  "missing_frames", "merged", "last_seen_session", "last_seen_stamp", "back_of")
+                  "missing_frames", "merged", "last_seen_session", "last_seen_stamp", "back_of", "first_seen_why")
 
 
 def format_objects(objects: Sequence[SiteObject], fmt: str, header: dict[str, Any] | None = None) -> str:
@@ -88,7 +89,8 @@ def _object_row(o: SiteObject) -> list[Any]:
 def _change_row(c: dict[str, Any]) -> list[Any]:
     old, new = c["old"] or [None, None], c["new"] or [None, None]
     return [c["session"], c["kind"], c["id"], c["category"], old[0], old[1], new[0], new[1], c["moved_m"],
-            c["missing_frames"], c["merged"], c["last_seen_session"], c["last_seen_stamp"], c.get("back_of")]
+            c["missing_frames"], c["merged"], c["last_seen_session"], c["last_seen_stamp"], c.get("back_of"),
+            c.get("first_seen_why")]
 
 
 def _describe(c: dict[str, Any]) -> str:
@@ -103,6 +105,8 @@ def _describe(c: dict[str, Any]) -> str:
                                            f"missing in {_or_unknown(c['missing_frames'])} frame(s)")
     elif c["kind"] in ("added", "first_seen"):  # first seen: new to the map where no earlier pass looked
         words += f" at {at(c['new'])}" + ("" if c.get("back_of") is None else f", back where node {c['back_of']} went")
+        if c["kind"] == "first_seen" and c.get("first_seen_why") in NEW_BECAUSE:
+            words += f" ({NEW_BECAUSE[c['first_seen_why']]})"
     else:
         words += f" {at(c['old'])} -> {at(c['new'])}, {c['moved_m']:.2f} m"
     if c["last_seen_session"] is not None:

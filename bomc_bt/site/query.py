@@ -77,6 +77,7 @@ class NodeChange:
     merged: bool = False  # removals: folded into a neighbouring node of its category (a duplicate)
     moved_m: float | None = None  # [m] moves: planar distance between the two ends
     back_of: int | None = None  # additions: the node an earlier pass saw go from this place (brought back)
+    first_seen_why: str | None = None  # first seen: "unseen", "edge_on" or "sighted" (net_changes.NetChange)
 
     def to_json(self) -> dict[str, Any]:
         def xyz(p):
@@ -86,7 +87,8 @@ class NodeChange:
                 "old": xyz(self.old), "new": xyz(self.new), "last_seen_session": self.last_seen_session,
                 "last_seen_stamp": None if self.last_seen_stamp is None else round(self.last_seen_stamp, 3),
                 "missing_frames": self.missing_frames, "merged": self.merged,
-                "moved_m": None if self.moved_m is None else round(self.moved_m, 3), "back_of": self.back_of}
+                "moved_m": None if self.moved_m is None else round(self.moved_m, 3), "back_of": self.back_of,
+                "first_seen_why": self.first_seen_why}
 
 
 @dataclass(frozen=True)
@@ -228,7 +230,7 @@ class SiteReader:
             out.changes.append(NodeChange(
                 session, c.kind, c.node_id, c.category, _tuple(c.old), _tuple(c.new),
                 None if seen is None else seen.session, None if seen is None else seen.stamp,
-                c.missing_frames, merged, moved, c.back_of))
+                c.missing_frames, merged, moved, c.back_of, c.first_seen_why))
         out.edits = [OperatorEdit(e.session, e.kind, e.node_id, e.category, dict(e.detail or {}))
                      for e in history if e.session == session and e.by_operator]
         return out
