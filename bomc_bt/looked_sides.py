@@ -70,7 +70,7 @@ def coarse_grid(grid: OccupancyGrid) -> OccupancyGrid:
     occupied where any of its cells is, else free where any is, else unknown. Why squares: a
     per-side look changes little over 0.2 m, and on the map's own 0.05 m cells an
     Environment-A-size floor's bits took 0.8 MB a pass and 50 ms to pack at every waypoint."""
-    factor = max(1, round(CELL / grid.resolution))
+    factor = square_cells(grid)
     if factor == 1:
         return grid
     h, w = grid.data.shape
@@ -80,13 +80,18 @@ def coarse_grid(grid: OccupancyGrid) -> OccupancyGrid:
     return OccupancyGrid(blocks.max(axis=(1, 3)).astype(np.int8), grid.resolution * factor, tuple(grid.origin))
 
 
-def block_any(mask: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """Where any cell of ``mask`` (the map's cells) is set, per square of a grid of ``shape``
-    (:func:`coarse_grid`)."""
-    factor = -(-mask.shape[0] // shape[0])
-    padded = np.zeros((shape[0] * factor, shape[1] * factor), dtype=bool)
-    padded[:mask.shape[0], :mask.shape[1]] = mask
-    return padded.reshape(shape[0], factor, shape[1], factor).any(axis=(1, 3))
+def square_cells(grid: OccupancyGrid) -> int:
+    """How many of ``grid``'s cells a square's side holds (:func:`coarse_grid`)."""
+    return max(1, round(CELL / grid.resolution))
+
+
+def block_any(mask: np.ndarray, factor: int) -> np.ndarray:
+    """Where any cell of ``mask`` (the map's cells) is set, per square of ``factor`` x
+    ``factor`` cells (:func:`coarse_grid`'s squares)."""
+    h, w = mask.shape
+    padded = np.zeros((-(-h // factor) * factor, -(-w // factor) * factor), dtype=bool)
+    padded[:h, :w] = mask
+    return padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor).any(axis=(1, 3))
 
 
 def fan_sides(polygon: np.ndarray, sides: int) -> list[tuple[int, np.ndarray]]:
@@ -120,17 +125,18 @@ def _crossed(a: int, b: int) -> list[int]:
 
 
 class LookedSides:
-    """Per map cell, a bit per viewing side a pass looked at it from (module docstring)."""
+    """Per square, a bit per viewing side a pass looked at it from (module docstring)."""
 
     def __init__(self, grid: OccupancyGrid, sides: int):
         if not 1 <= sides <= MAX_SIDES:
             raise ValueError(f"looked sides need 1 to {MAX_SIDES} sides, not {sides}")
         self.grid = coarse_grid(grid)  # squares of about CELL
+        self.factor = square_cells(grid)
         self.sides = sides
         self.bits = np.zeros(self.grid.data.shape, dtype=bits_dtype(sides))
 
     def add(self, polygon: np.ndarray) -> None:
-        """Set each side's bit on the cells of ``polygon`` (a looked-at fan) seen from it."""
+        """Set each side's bit on the squares of ``polygon`` (a looked-at fan) seen from it."""
         polygon = np.asarray(polygon, dtype=float)
         if len(polygon) < 3:
             return
@@ -159,7 +165,7 @@ class LookedSides:
         if isinstance(text, str) and text.startswith(f"{self.sides}:"):
             self.bits[:] = unpack_sides(text, self.bits.shape, self.sides)
         else:
-            self.bits[block_any(np.asarray(looked, dtype=bool), self.bits.shape)] = ~self.bits.dtype.type(0)
+            self.bits[block_any(np.asarray(looked, dtype=bool), self.factor)] = ~self.bits.dtype.type(0)
 
 
 def saved_side_count(text: str) -> int:
@@ -246,7 +252,7 @@ def earlier_side_looks(store, looked: dict[int, np.ndarray], grid: OccupancyGrid
     for session, floor in looked.items():
         text = store.get_progress(looked_sides_key(session))
         bits = _saved_sides(store, session, text, squares, sides) if _of_sides(text, sides) else np.zeros_like(out)
-        bits[block_any(floor, out.shape) & (bits == 0)] = everywhere
+        bits[block_any(floor, square_cells(grid)) & (bits == 0)] = everywhere
         out |= bits
     return widen_sides_into_walls(out, squares, margin, sides), squares
 

@@ -93,6 +93,11 @@ def test_bits_survive_packing_and_are_refused_for_another_count_of_sides():
         older = LookedSides(grid, 8)
         older.restore(saved, floor)
         assert np.count_nonzero(older.bits) == 1 and older.bits[25, 50] == 255
+    odd = OccupancyGrid(np.zeros((9, 11), dtype=np.int8), 0.05, (0.0, 0.0))  # not whole squares: 3 x 3 of them
+    edge, corner = LookedSides(odd, 8), np.zeros((9, 11), dtype=bool)
+    corner[8, 10] = True
+    edge.restore(None, corner)
+    assert edge.bits.shape == (3, 3) and np.argwhere(edge.bits).tolist() == [[2, 2]]
     assert looked_sides_for(grid, AssociationParams(face_on_deg=90.0)) is None
     assert looked_sides_for(grid, AssociationParams(mode="paper")) is None
     assert looked_sides_for(grid, AssociationParams(miss_sides=0)) is None
