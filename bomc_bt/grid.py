@@ -119,6 +119,15 @@ def inflate_mask(mask: np.ndarray, radius_cells: float) -> np.ndarray:
     return cv2.dilate(mask.astype(np.uint8), kernel).astype(bool)
 
 
+def any_per_block(mask: np.ndarray, size: int) -> np.ndarray:
+    """Bool per ``size`` x ``size`` block of ``mask`` (the last ones padded with False): any
+    cell of it is set. Coarser grids (tiles, pooled planners, looked-at squares) are built so."""
+    h, w = mask.shape
+    padded = np.zeros((-(-h // size) * size, -(-w // size) * size), dtype=bool)
+    padded[:h, :w] = mask
+    return padded.reshape(padded.shape[0] // size, size, padded.shape[1] // size, size).any(axis=(1, 3))
+
+
 # -- map_server format -------------------------------------------------------------------
 def load_map(yaml_path: str | Path) -> OccupancyGrid:
     """Read a map_server map (YAML + image) with its negate, thresholds and mode."""

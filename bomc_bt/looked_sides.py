@@ -49,7 +49,7 @@ import numpy as np
 from bomc_bt.errors import BomcError
 from bomc_bt.graph.faces import flat_normal
 from bomc_bt.graph.records import Node
-from bomc_bt.grid import OccupancyGrid, inflate_mask
+from bomc_bt.grid import OccupancyGrid, any_per_block, inflate_mask
 
 MAX_SIDES = 32  # the bits a square holds (uint32); more sides keep no per-side looks
 CELL = 0.2  # [m] the side of the squares the looks are kept on: the map's cells, a few to a square
@@ -83,15 +83,6 @@ def coarse_grid(grid: OccupancyGrid) -> OccupancyGrid:
 def square_cells(grid: OccupancyGrid) -> int:
     """How many of ``grid``'s cells a square's side holds (:func:`coarse_grid`)."""
     return max(1, round(CELL / grid.resolution))
-
-
-def block_any(mask: np.ndarray, factor: int) -> np.ndarray:
-    """Where any cell of ``mask`` (the map's cells) is set, per square of ``factor`` x
-    ``factor`` cells (:func:`coarse_grid`'s squares)."""
-    h, w = mask.shape
-    padded = np.zeros((-(-h // factor) * factor, -(-w // factor) * factor), dtype=bool)
-    padded[:h, :w] = mask
-    return padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor).any(axis=(1, 3))
 
 
 def fan_sides(polygon: np.ndarray, sides: int) -> list[tuple[int, np.ndarray]]:
@@ -165,7 +156,7 @@ class LookedSides:
         if isinstance(text, str) and text.startswith(f"{self.sides}:"):
             self.bits[:] = unpack_sides(text, self.bits.shape, self.sides)
         else:
-            self.bits[block_any(np.asarray(looked, dtype=bool), self.factor)] = ~self.bits.dtype.type(0)
+            self.bits[any_per_block(np.asarray(looked, dtype=bool), self.factor)] = ~self.bits.dtype.type(0)
 
 
 def saved_side_count(text: str) -> int:
@@ -252,7 +243,7 @@ def earlier_side_looks(store, looked: dict[int, np.ndarray], grid: OccupancyGrid
     for session, floor in looked.items():
         text = store.get_progress(looked_sides_key(session))
         bits = _saved_sides(store, session, text, squares, sides) if _of_sides(text, sides) else np.zeros_like(out)
-        bits[block_any(floor, square_cells(grid)) & (bits == 0)] = everywhere
+        bits[any_per_block(floor, square_cells(grid)) & (bits == 0)] = everywhere
         out |= bits
     return widen_sides_into_walls(out, squares, margin, sides), squares
 

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from bomc_bt.errors import BomcError
 from bomc_bt.graph.history import withdrawn_nodes
 from bomc_bt.json_text import JSONMemo
 from bomc_bt.looked_sides import looked_sides_key
@@ -161,7 +162,11 @@ def restore_pass(store, session: int, robot, perception) -> bool:
         perception.looked.seen[:] = unpack_mask(looked, perception.looked.seen.shape)
     sides = getattr(perception, "looked_sides", None)
     if sides is not None and looked is not None:
-        sides.restore(store.get_progress(looked_sides_key(session)), perception.looked.seen)
+        try:
+            sides.restore(store.get_progress(looked_sides_key(session)), perception.looked.seen)
+        except (ValueError, zlib.error) as exc:  # binascii.Error is a ValueError
+            raise BomcError(f"corrupt site store: the saved looked-at sides of session {session} are not of this "
+                            f"map ({exc})", store.path, f"progress.{looked_sides_key(session)}") from None
     sightings = store.get_progress(sightings_key(session))
     if isinstance(sightings, dict):
         perception.sightings.restore(sightings)

@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from bomc_bt.grid import any_per_block
 from bomc_bt.planner import GridPlanner
 
 _SQRT2 = math.sqrt(2.0)
@@ -41,12 +42,7 @@ def pooling_factor(planner: GridPlanner, resolution: float) -> int:
 
 def _pooled_traversable(planner: GridPlanner, f: int) -> np.ndarray:
     free = ~planner.lethal
-    if f == 1:
-        return free
-    h, w = -(-free.shape[0] // f) * f, -(-free.shape[1] // f) * f
-    padded = np.zeros((h, w), dtype=bool)
-    padded[: free.shape[0], : free.shape[1]] = free
-    return padded.reshape(h // f, f, w // f, f).any(axis=(1, 3))
+    return free if f == 1 else any_per_block(free, f)
 
 
 def nearest_sources(traversable: np.ndarray, sources: list[tuple[int, int]], cell: float

@@ -162,6 +162,21 @@ def test_a_resume_with_another_seed_is_refused(office):
     assert "--seed 2" in error_line(result)
 
 
+def test_a_resume_whose_saved_looked_at_sides_are_corrupt_is_one_line_and_changes_nothing(office):
+    site = shutil.copytree(office["base"], office["root"] / "corrupt-sides")
+    with pytest.raises(Killed):
+        run.run_monitor(office["world"], site, 2, seed=2, config=office["config"], hooks=[kill_at(60.0)])
+    with SiteStore(site) as store:
+        assert store.get_progress(looked_sides_key(2)) is not None  # the waypoint snapshots saved them
+        store.set_progress(looked_sides_key(2), "8:bm90IGJpdHM=")
+    before = (site / "site.db").read_bytes()
+    result = subprocess.run(bomc_command("monitor", "--world", str(office["world"]), "--site", str(site),
+                                         "--session", "2", "--seed", "2", "--resume", "--quiet"),
+                            capture_output=True, text=True, cwd=REPO, env=bomc_env(), timeout=120)
+    assert result.returncode == 2 and "progress.looked_sides/2" in error_line(result), result.stderr
+    assert "Traceback" not in result.stderr and (site / "site.db").read_bytes() == before
+
+
 def test_kill_9_of_bomc_monitor_then_resume_gives_the_same_f1(office):
     """A real SIGKILL, after the intra-session change was applied; resumed by a second process."""
     site = shutil.copytree(office["base"], office["root"] / "kill-9")

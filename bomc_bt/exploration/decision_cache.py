@@ -26,7 +26,7 @@ from bomc_bt.exploration.frontiers import Frontier
 from bomc_bt.exploration.gain import visible_unknown
 from bomc_bt.exploration.reachability import Reachability
 from bomc_bt.exploration.standoff_window import StandoffResult, standoff_margin, window_standoff
-from bomc_bt.grid import OccupancyGrid
+from bomc_bt.grid import OccupancyGrid, any_per_block
 
 _TILE = 16  # [count] map cells per tile side (a multiple of the planner's factor, see ChangeStamps)
 
@@ -55,7 +55,7 @@ class ChangeStamps:
             rows, cols = -(-data.shape[0] // tile), -(-data.shape[1] // tile)
             self.stamps = np.full((rows, cols), self.count, dtype=np.int64)
         else:
-            changed = _tiles(self._grid != data, tile) | _tiles(self._component != comp, tile // f)
+            changed = any_per_block(self._grid != data, tile) | any_per_block(self._component != comp, tile // f)
             self.stamps[changed[:self.stamps.shape[0], :self.stamps.shape[1]]] = self.count
         self._grid, self._component, self._factor = data.copy(), comp.copy(), f
 
@@ -65,14 +65,6 @@ class ChangeStamps:
         t = self.tile
         window = self.stamps[max(r0, 0) // t:(max(r1, 1) - 1) // t + 1, max(c0, 0) // t:(max(c1, 1) - 1) // t + 1]
         return window.size == 0 or int(window.max()) <= stamp
-
-
-def _tiles(changed: np.ndarray, size: int) -> np.ndarray:
-    """Bool per ``size`` x ``size`` tile: any cell of it is set."""
-    h, w = changed.shape
-    padded = np.zeros((-(-h // size) * size, -(-w // size) * size), dtype=bool)
-    padded[:h, :w] = changed
-    return padded.reshape(padded.shape[0] // size, size, padded.shape[1] // size, size).any(axis=(1, 3))
 
 
 class DecisionCache:
