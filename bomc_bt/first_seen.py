@@ -45,7 +45,6 @@ before (the old behaviour, never a true change hidden as "new to the map").
 
 from __future__ import annotations
 
-import base64
 import dataclasses
 import math
 import zlib
@@ -58,7 +57,7 @@ from bomc_bt.errors import BomcError
 from bomc_bt.graph import PRESENT, REMOVED, AssociationParams, Event, Node
 from bomc_bt.grid import OccupancyGrid, inflate_mask
 from bomc_bt.looked_sides import MAX_SIDES, earlier_side_looks, face_sides, side_bits, side_count
-from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key, unpack_mask
+from bomc_bt.pass_resume import coverage_key, looked_key, saved_mask, sightings_key
 from bomc_bt.sightings import other_looks, unpack_sightings
 
 FIRST_SEEN = "first_seen"  # the key in an ``added`` event's detail (and a pass end's ``updated`` verdict)
@@ -385,15 +384,5 @@ def saved_coverage(store, session: int, shape: tuple[int, int], key: str | None 
     """The floor pass ``session`` saw (bool, ``shape``) as saved under ``key`` (default: its
     whole view fans), None when it saved none; a mask that is not one of this map is a corrupt
     store (one line naming the progress key)."""
-    key = key or coverage_key(session)
-    text = store.get_progress(key)
-    if text is None:
-        return None
-    try:
-        bits = zlib.decompress(base64.b64decode(text, validate=True)) if isinstance(text, str) else None
-    except (ValueError, zlib.error):  # binascii.Error is a ValueError
-        bits = None
-    if bits is None or len(bits) != -(-int(np.prod(shape)) // 8):
-        raise BomcError(f"corrupt site store: the saved coverage of session {session} is not a mask of this "
-                        f"map ({shape[1]} x {shape[0]} cells)", store.path, f"progress.{key}")
-    return unpack_mask(text, shape).astype(bool)
+    mask = saved_mask(store, session, key or coverage_key(session), shape)
+    return None if mask is None else mask.astype(bool)

@@ -30,6 +30,7 @@ from __future__ import annotations
 import base64
 import zlib
 from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -151,25 +152,25 @@ def restore_pass(store, session: int, robot, perception) -> bool:
         perception.graph.policy.withdrawn = withdrawn_nodes(store.events(session=session))
     perception.frames = int(point.get("frames", 0))
     coverage = perception.coverage
-    snapshot = store.get_progress(coverage_key(session))
+    snapshot = saved_mask(store, session, coverage_key(session), coverage.seen.shape)
     if snapshot is not None:
-        coverage.seen[:] = unpack_mask(snapshot, coverage.seen.shape)
-    near = store.get_progress(near_key(session))
-    if coverage.near is not coverage.seen and (near or snapshot) is not None:
-        coverage.near[:] = unpack_mask(near or snapshot, coverage.near.shape)  # older: all seen
-    looked = store.get_progress(looked_key(session))
+        coverage.seen[:] = snapshot
+    near = saved_mask(store, session, near_key(session), coverage.near.shape, "near coverage")
+    if coverage.near is not coverage.seen and (near if near is not None else snapshot) is not None:
+        coverage.near[:] = near if near is not None else snapshot  # older: all seen
+    looked = saved_mask(store, session, looked_key(session), perception.looked.seen.shape, "looked-at floor")
     if looked is not None:
-        perception.looked.seen[:] = unpack_mask(looked, perception.looked.seen.shape)
+        perception.looked.seen[:] = looked
     sides = getattr(perception, "looked_sides", None)
     if sides is not None and looked is not None:
-        try:
+        with _corrupt(store, f"the saved looked-at sides of session {session} are not of this map",
+                      looked_sides_key(session)):
             sides.restore(store.get_progress(looked_sides_key(session)), perception.looked.seen)
-        except (ValueError, zlib.error) as exc:  # binascii.Error is a ValueError
-            raise BomcError(f"corrupt site store: the saved looked-at sides of session {session} are not of this "
-                            f"map ({exc})", store.path, f"progress.{looked_sides_key(session)}") from None
     sightings = store.get_progress(sightings_key(session))
     if isinstance(sightings, dict):
-        perception.sightings.restore(sightings)
+        with _corrupt(store, f"the saved sightings of session {session} are not masks of this map",
+                      sightings_key(session)):
+            perception.sightings.restore(sightings)
     perception.sightings.add_points(point.get("sighted_since", []))
     for polygon in point.get("fov_since", []):
         coverage.add(np.asarray(polygon, dtype=float))
@@ -181,6 +182,32 @@ def restore_pass(store, session: int, robot, perception) -> bool:
     perception.looked_since = list(point.get("looked_since", []))
     perception.events = list(store.events(session=session))
     return point.get("robot") is not None and callable(restore)
+
+
+@contextmanager
+def _corrupt(store, what: str, key: str) -> Iterator[None]:
+    """A saved value that does not unpack is a corrupt store: one line naming its progress key."""
+    try:
+        yield
+    except (ValueError, TypeError, zlib.error) as exc:  # binascii.Error is a ValueError
+        raise BomcError(f"corrupt site store: {what} ({exc})", store.path, f"progress.{key}") from None
+
+
+def saved_mask(store, session: int, key: str, shape: tuple[int, ...], what: str = "coverage") -> np.ndarray | None:
+    """The 0/1 mask saved under progress ``key`` (uint8, ``shape``), None when none was; one
+    that is not a mask of this map is a corrupt store (one line naming the key), met before the
+    pass writes anything."""
+    text = store.get_progress(key)
+    if text is None:
+        return None
+    try:
+        bits = zlib.decompress(base64.b64decode(text, validate=True)) if isinstance(text, str) else None
+    except (ValueError, zlib.error):  # binascii.Error is a ValueError
+        bits = None
+    if bits is None or len(bits) != -(-int(np.prod(shape)) // 8):
+        raise BomcError(f"corrupt site store: the saved {what} of session {session} is not a mask of this "
+                        f"map ({shape[-1]} x {shape[0]} cells)", store.path, f"progress.{key}")
+    return np.unpackbits(np.frombuffer(bits, dtype=np.uint8))[:int(np.prod(shape))].reshape(shape)
 
 
 def pack_mask(mask: np.ndarray) -> str:

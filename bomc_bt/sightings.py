@@ -91,8 +91,9 @@ class Sightings:
         return {category: self._packed[category] for category in sorted(self.masks)}
 
     def restore(self, saved: Mapping[str, str]) -> None:
-        """Put back a snapshot saved by :meth:`packed` (a resumed pass)."""
-        self.masks = {str(c): unpack_mask(text, self.grid.data.shape).astype(bool) for c, text in saved.items()}
+        """Put back a snapshot saved by :meth:`packed` (a resumed pass); ValueError when a mask
+        is not one of this map."""
+        self.masks = unpack_sightings(dict(saved), self.grid.data.shape) or {}
         self._packed = {}
 
 

@@ -23,7 +23,7 @@ from bomc_bt import run
 from bomc_bt.evaluate_site import evaluate_session
 from bomc_bt.looked_sides import looked_sides_key
 from bomc_bt.officegen import OfficeParams, generate_office
-from bomc_bt.pass_resume import looked_key
+from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key
 from bomc_bt.resume_rows import load_resume_point
 from bomc_bt.store import SiteStore
 from bomc_bt.world import load_world
@@ -162,18 +162,24 @@ def test_a_resume_with_another_seed_is_refused(office):
     assert "--seed 2" in error_line(result)
 
 
-def test_a_resume_whose_saved_looked_at_sides_are_corrupt_is_one_line_and_changes_nothing(office):
-    site = shutil.copytree(office["base"], office["root"] / "corrupt-sides")
+@pytest.mark.parametrize("key, corrupt", [
+    (looked_sides_key(2), "8:bm90IGJpdHM="),  # eight sides of a mask that is not one
+    (looked_key(2), "bm90IGJpdHM="),  # valid base64, not zlib
+    (coverage_key(2), "eJwDAAAAAAE="),  # zlib of nothing: too short for the map
+    (sightings_key(2), {"chair": "not base64!"}),
+])
+def test_a_resume_whose_saved_masks_are_corrupt_is_one_line_and_changes_nothing(office, key, corrupt):
+    site = shutil.copytree(office["base"], office["root"] / f"corrupt-{key.split('/')[0]}")
     with pytest.raises(Killed):
         run.run_monitor(office["world"], site, 2, seed=2, config=office["config"], hooks=[kill_at(60.0)])
     with SiteStore(site) as store:
-        assert store.get_progress(looked_sides_key(2)) is not None  # the waypoint snapshots saved them
-        store.set_progress(looked_sides_key(2), "8:bm90IGJpdHM=")
+        assert store.get_progress(key) is not None  # the waypoint snapshots saved it
+        store.set_progress(key, corrupt)
     before = (site / "site.db").read_bytes()
     result = subprocess.run(bomc_command("monitor", "--world", str(office["world"]), "--site", str(site),
                                          "--session", "2", "--seed", "2", "--resume", "--quiet"),
                             capture_output=True, text=True, cwd=REPO, env=bomc_env(), timeout=120)
-    assert result.returncode == 2 and "progress.looked_sides/2" in error_line(result), result.stderr
+    assert result.returncode == 2 and f"progress.{key}" in error_line(result), result.stderr
     assert "Traceback" not in result.stderr and (site / "site.db").read_bytes() == before
 
 
