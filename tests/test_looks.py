@@ -80,6 +80,20 @@ def test_a_look_alike_added_since_the_removed_node_was_last_seen_may_be_where_it
         == [(1, 10)]
 
 
+def test_a_look_alike_first_seen_in_the_pass_may_be_where_the_removed_one_went():
+    # 93 x 90 m office, seed 10231, pass 2: a red chair taken away and a red chair brought in
+    # 70 m off were paired as a move; a red chair was also first seen that pass, in a place no
+    # earlier pass had looked: the removed chair may as well have gone there
+    removed, arrival = [node(1, 0.0, RED)], node(10, 70.0, RED, first_session=2)
+    varied = [node(100 + k, 100.0 + k, (RED, BLUE, GREEN, ORANGE, GREY)[k % 5]) for k in range(20)]
+    assert ids(look_pairs(removed, [arrival], 0.04, varied)) == [(1, 10)]
+    elsewhere = node(11, 40.0, RED, first_session=2)
+    assert look_pairs(removed, [arrival], 0.04, varied, first_seen=[elsewhere]) == []
+    # one of another look, or of another kind, leaves the pair as it was
+    for other in (node(11, 40.0, BLUE, first_session=2), node(11, 40.0, RED, "trash bin", first_session=2)):
+        assert ids(look_pairs(removed, [arrival], 0.04, varied, first_seen=[other])) == [(1, 10)]
+
+
 def test_a_nodes_colour_is_the_running_mean_of_its_views():
     v = node(1, 0.0)
     blend(v, np.array(RED))
@@ -90,10 +104,11 @@ def test_a_nodes_colour_is_the_running_mean_of_its_views():
 
 
 def chair_carried(far: float, arrival_colour, tolerance: float = 0.04,
-                  seen_after: bool = False) -> tuple[ObjectGraph, list]:
+                  seen_after: bool = False, first_seen_at: float | None = None) -> tuple[ObjectGraph, list]:
     """A red chair seen in pass 1 at (0, 0); in pass 2 it is gone, and a chair of
     ``arrival_colour`` stands ``far`` metres away, seen before the red chair's place was
-    seen empty (``seen_after``: after)."""
+    seen empty (``seen_after``: after); ``first_seen_at``: a red chair also found that far off
+    (x, m) in a place no earlier pass looked at (first seen: no arrival)."""
     params = AssociationParams(confirm_misses=1, confirm_detections=1, colour_tolerance=tolerance)
     first = ObjectGraph(params)
     history = []
@@ -112,7 +127,10 @@ def chair_carried(far: float, arrival_colour, tolerance: float = 0.04,
         history += g.associate([], [0] if there else [], 2, 11.0 + k)
     if seen_after:
         history += g.associate(arrival, [], 2, 30.0)
-    history += g.pair_relocations(2, 40.0)
+    if first_seen_at is not None:
+        history += g.associate([Observation("chair", np.array([first_seen_at, 0.0, 0.45]), 0.9, 500, colour=RED)],
+                               [], 2, 35.0)
+    history += g.pair_relocations(2, 40.0, lambda n: first_seen_at is None or abs(n.position[0] - first_seen_at) > 1)
     return g, [(c.kind, c.node_id) for c in net_changes(history, 1, lambda _c: 0.7)]
 
 
@@ -125,6 +143,13 @@ def test_a_chair_carried_across_the_floor_keeps_its_id_by_its_colour():
     assert sorted(k for k, _ in blind) == ["added", "removed"]
     _, no_colour = chair_carried(25.0, None)
     assert sorted(k for k, _ in no_colour) == ["added", "removed"]
+
+
+def test_a_red_chair_first_seen_elsewhere_in_the_pass_makes_the_carried_one_a_guess():
+    _, changes = chair_carried(25.0, (0.66, 0.18), first_seen_at=-40.0)
+    assert sorted(k for k, _ in changes) == ["added", "added", "removed"]  # no move: where it went is a guess
+    _, alone = chair_carried(25.0, (0.66, 0.18))
+    assert alone == [("moved", 0)]
 
 
 def test_a_chair_of_another_colour_near_where_one_went_is_another_chair():
