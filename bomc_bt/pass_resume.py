@@ -39,7 +39,7 @@ from bomc_bt.errors import BomcError
 from bomc_bt.graph.history import withdrawn_nodes
 from bomc_bt.json_text import JSONMemo
 from bomc_bt.looked_sides import looked_sides_key
-from bomc_bt.resume_rows import load_resume_point
+from bomc_bt.resume_rows import load_resume_point, resume_key
 
 
 def coverage_key(session: int) -> str:
@@ -144,10 +144,12 @@ def restore_pass(store, session: int, robot, perception) -> bool:
     if not isinstance(point, dict):
         return False
     restore = getattr(robot, "restore", None)
-    if point.get("robot") is not None and callable(restore):
-        restore(point["robot"])
-    removed = {n.id: n for n in store.nodes(include_removed=True) if n.state != "present"}
-    perception.graph.restore_pass_state(point.get("graph") or {}, removed)
+    with _corrupt(store, f"the saved resume point of session {session} (or a part below it) is not one this "
+                         f"pass can take up", resume_key(session)):
+        if point.get("robot") is not None and callable(restore):
+            restore(point["robot"])
+        removed = {n.id: n for n in store.nodes(include_removed=True) if n.state != "present"}
+        perception.graph.restore_pass_state(point.get("graph") or {}, removed)
     if isinstance(getattr(perception.graph.policy, "withdrawn", None), set):  # robust: what it retracted
         perception.graph.policy.withdrawn = withdrawn_nodes(store.events(session=session))
     perception.frames = int(point.get("frames", 0))
@@ -189,8 +191,9 @@ def _corrupt(store, what: str, key: str) -> Iterator[None]:
     """A saved value that does not unpack is a corrupt store: one line naming its progress key."""
     try:
         yield
-    except (ValueError, TypeError, zlib.error) as exc:  # binascii.Error is a ValueError
-        raise BomcError(f"corrupt site store: {what} ({exc})", store.path, f"progress.{key}") from None
+    except (ValueError, TypeError, KeyError, IndexError, zlib.error) as exc:  # binascii.Error is a ValueError
+        raise BomcError(f"corrupt site store: {what} ({type(exc).__name__}: {exc})", store.path,
+                        f"progress.{key}") from None
 
 
 def saved_mask(store, session: int, key: str, shape: tuple[int, ...], what: str = "coverage") -> np.ndarray | None:

@@ -24,7 +24,7 @@ from bomc_bt.evaluate_site import evaluate_session
 from bomc_bt.looked_sides import looked_sides_key
 from bomc_bt.officegen import OfficeParams, generate_office
 from bomc_bt.pass_resume import coverage_key, looked_key, sightings_key
-from bomc_bt.resume_rows import load_resume_point
+from bomc_bt.resume_rows import load_resume_point, resume_key
 from bomc_bt.store import SiteStore
 from bomc_bt.world import load_world
 
@@ -180,6 +180,31 @@ def test_a_resume_whose_saved_masks_are_corrupt_is_one_line_and_changes_nothing(
                                          "--session", "2", "--seed", "2", "--resume", "--quiet"),
                             capture_output=True, text=True, cwd=REPO, env=bomc_env(), timeout=120)
     assert result.returncode == 2 and f"progress.{key}" in error_line(result), result.stderr
+    assert "Traceback" not in result.stderr and (site / "site.db").read_bytes() == before
+
+
+def _spoil_robot(store) -> None:
+    shell = store.get_progress(resume_key(2))
+    shell["robot"]["true_pose"] = ["north", 0.0, 0.0]
+    store.set_progress(resume_key(2), shell)
+
+
+def _spoil_graph(store) -> None:
+    store.set_progress(f"{resume_key(2)}/graph/last_seen", {"0": "yesterday"})
+
+
+@pytest.mark.parametrize("spoil", [_spoil_robot, _spoil_graph])
+def test_a_resume_whose_saved_robot_or_graph_state_is_corrupt_is_one_line_and_changes_nothing(office, spoil):
+    site = shutil.copytree(office["base"], office["root"] / f"corrupt{spoil.__name__}")
+    with pytest.raises(Killed):
+        run.run_monitor(office["world"], site, 2, seed=2, config=office["config"], hooks=[kill_at(60.0)])
+    with SiteStore(site) as store:
+        spoil(store)
+    before = (site / "site.db").read_bytes()
+    result = subprocess.run(bomc_command("monitor", "--world", str(office["world"]), "--site", str(site),
+                                         "--session", "2", "--seed", "2", "--resume", "--quiet"),
+                            capture_output=True, text=True, cwd=REPO, env=bomc_env(), timeout=120)
+    assert result.returncode == 2 and "progress.resume/2" in error_line(result), result.stderr
     assert "Traceback" not in result.stderr and (site / "site.db").read_bytes() == before
 
 
