@@ -79,10 +79,10 @@ def looks_apart(a: Node | Observation, b: Node | Observation, tolerance: float) 
 def look_pairs(removed: Sequence[Node], arrivals: Sequence[Node], tolerance: float,
                population: Sequence[Node] = (), unseen: Sequence[Node] = (),
                reach: float = 0.0, earlier: Sequence[Node] = (),
-               first_seen: Sequence[Node] = ()) -> list[tuple[Node, Node]]:
+               first_seen: Sequence[Node] = (), odds: float = 1.5) -> list[tuple[Node, Node]]:
     """(removed, arrival) pairs of one category whose colours match each other and no other
     candidate on either side, where the match is evidence of a move (:func:`coincidence`
-    below 1; ``population``: the map's nodes, to count how common a look is), in the removed
+    below ``odds``, association.look_odds; ``population``: the map's nodes, to count how common a look is), in the removed
     nodes' id order. A node of the arrival's kind and look within ``reach`` (m) of it that the
     pass never saw (``unseen``: its place hidden all pass) is a candidate too: it may be the
     one that moved there. Traced: a generated 93 x 90 m office, seed 9103, pass 2: a blue
@@ -118,7 +118,8 @@ def look_pairs(removed: Sequence[Node], arrivals: Sequence[Node], tolerance: flo
                        and alike(w.colour, look, tolerance)]
         found_elsewhere = [w for w in first_seen if w.category == v.category and alike(w.colour, look, tolerance)]
         if len(rivals) == 1 and not hidden_beside and not found_since and not found_elsewhere \
-                and coincidence(v, removed, arrivals, population, tolerance) < 1.0:
+                and informative(v, removed, arrivals, population, tolerance) \
+                and coincidence(v, removed, arrivals, population, tolerance) < odds:
             pairs.append((v, twins[0]))
     return pairs
 
@@ -132,8 +133,9 @@ def coincidence(v: Node, removed: Sequence[Node], arrivals: Sequence[Node], popu
     away while an unrelated one of the same model was brought in. If ``v`` moved, its new
     place is among the additions for sure; if it was taken away, one of the ``n`` additions
     matches its look by chance with odds of about ``n`` times the look's share ``p``. The
-    match is evidence of a move only while ``n * p`` is below 1 (the likelihood ratio
-    ``1 / (n p)`` above 1). Where every object of a kind looks alike (a world without
+    match is evidence of a move while ``n * p`` is below the odds of a move against such a
+    coincidence (``association.look_odds``; the likelihood ratio ``1 / (n p)`` above their
+    inverse). Where every object of a kind looks alike (a world without
     colours, a floor of one chair model) ``p`` is 1 and a look pairs nothing, so such runs
     keep the pairs by position alone.
 
@@ -142,11 +144,24 @@ def coincidence(v: Node, removed: Sequence[Node], arrivals: Sequence[Node], popu
     its objects: counted over them alone, ``p`` is 1 by construction. Then the floor's looks
     of every kind stand in (traced: a generated 36 x 28 m office, seed 7901, pass 2: the
     only sofa carried 17 m was reported taken away and a new one brought in)."""
+    n = max(sum(a.category == v.category for a in arrivals), sum(w.category == v.category for w in removed))
+    return n * look_share(v, removed, arrivals, population, tolerance)
+
+
+def look_share(v: Node, removed: Sequence[Node], arrivals: Sequence[Node], population: Sequence[Node],
+               tolerance: float) -> float:
+    """The share of ``v``'s kind that looks like ``v`` (:func:`coincidence`'s ``p``)."""
     coloured = [n for n in (*population, *removed, *arrivals) if n.colour is not None]
     kind = {n.id: n for n in coloured if n.category == v.category}
     candidates = {n.id for n in (*removed, *arrivals)}
     if all(i == v.id or i in candidates for i in kind):
         kind = {n.id: n for n in coloured}
-    share = sum(alike(v.colour, n.colour, tolerance) for n in kind.values()) / max(len(kind), 1)
-    n = max(sum(a.category == v.category for a in arrivals), sum(w.category == v.category for w in removed))
-    return n * share
+    return sum(alike(v.colour, n.colour, tolerance) for n in kind.values()) / max(len(kind), 1)
+
+
+def informative(v: Node, removed: Sequence[Node], arrivals: Sequence[Node], population: Sequence[Node],
+                tolerance: float) -> bool:
+    """Whether ``v``'s look tells it from some object of its kind (its share below 1): where
+    every object of a kind looks alike, a match by look is no evidence at all, whatever the
+    odds of a move (``association.look_odds``), and nothing is paired by look."""
+    return look_share(v, removed, arrivals, population, tolerance) < 1.0 - 1e-9

@@ -113,7 +113,8 @@ def pair_relocations(policy: RobustPolicy, graph: ObjectGraph, session: int, sta
     first_seen = [n for n in graph.nodes.values()
                   if n.state == PRESENT and n.first_session == session and not candidate(n)]
     far = look_pairs([v for v in removed if v.id not in paired], [a for a in arrivals if a.id not in paired],
-                     tolerance, list(graph.nodes.values()), unseen, policy.params.move_radius, earlier, first_seen)
+                     tolerance, list(graph.nodes.values()), unseen, policy.params.move_radius, earlier, first_seen,
+                     policy.params.look_odds)
     paired |= {n.id for pair in far for n in pair}
     late = relocation_pairs([v for v in unseen if graph.missed_up_close(v.id) and not policy.params.retracts(v)],
                             [a for a in arrivals if a.id not in paired], policy.params.relocation_radius,

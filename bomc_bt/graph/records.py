@@ -184,6 +184,11 @@ class AssociationParams:
     # stood). Wider than colour_tolerance: one view's colour strays more than a node's running
     # mean of many; 0, or colour_tolerance 0: colour never refuses a match
     colour_match_tolerance: float = 0.08
+    # [-] robust: a removal and an arrival paired by look (above) are one object moved while the
+    # matches chance would give among the pass's candidates of their kind (n times the look's share
+    # of the kind, bomc_bt.graph.looks.coincidence) stay below this: the odds of a move against an
+    # object taken away while an unrelated one of its model came in. 1: even odds
+    look_odds: float = 1.5
     # [m] robust: when a pass ends, a node it added this near (planar) where an earlier pass
     # removed one of its category on evidence of absence, not seen since, and of its look where
     # both are known, is that object brought back: never paired as another's move
@@ -288,6 +293,8 @@ class AssociationParams:
         if isinstance(self.replace_sightings, bool) or not 0 <= self.replace_sightings <= 1000 \
                 or int(self.replace_sightings) != self.replace_sightings:
             raise ValueError("replace_sightings must be a whole number 0 to 1000")
+        if not 0.0 < self.look_odds <= 10.0:
+            raise ValueError("look_odds must be in (0, 10]")
         if not 0.0 <= self.colour_tolerance <= 0.5:
             raise ValueError("colour_tolerance must be in [0, 0.5] (0 turns it off)")
         if not 0.0 <= self.colour_match_tolerance <= 0.5:
