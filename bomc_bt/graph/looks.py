@@ -82,7 +82,8 @@ def look_pairs(removed: Sequence[Node], arrivals: Sequence[Node], tolerance: flo
                first_seen: Sequence[Node] = (), odds: float = 1.5) -> list[tuple[Node, Node]]:
     """(removed, arrival) pairs of one category whose colours match each other and no other
     candidate on either side, where the match is evidence of a move (:func:`coincidence`
-    below ``odds``, association.look_odds; ``population``: the map's nodes, to count how common a look is), in the removed
+    below ``odds``, association.look_odds, and a look not every object of the kind shares;
+    ``population``: the map's nodes, to count how common a look is), in the removed
     nodes' id order. A node of the arrival's kind and look within ``reach`` (m) of it that the
     pass never saw (``unseen``: its place hidden all pass) is a candidate too: it may be the
     one that moved there. Traced: a generated 93 x 90 m office, seed 9103, pass 2: a blue
